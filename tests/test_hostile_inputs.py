@@ -233,6 +233,26 @@ def test_a_report_of_a_16_bit_image(gl, image):
     assert_array_equal(report.images["deformed"], same.images["deformed"])
 
 
+@pytest.mark.parametrize("low, high", [(0.0, 255.0), (-1.0, 1.0), (1000.0, 3000.0)])
+def test_a_report_of_a_float_image_of_any_range(gl, image, low, high):
+    # a float TIFF of 0 to 255 was clipped to [0, 1]: pictures white, the construction error
+    # ~1e-16 of a white image, and no word of it; now scaled from its least to its greatest
+    # value, recorded in the summary, the same report as its uint8 self
+    floats = low + image.astype(np.float64) * ((high - low) / 255.0)
+    floats[0, 0], floats[-1, -1] = low, high
+    eight = np.round((floats - low) * (255.0 / (high - low))).astype(np.uint8)
+    with glmls.MLS(SRC, DST) as m:
+        report = glmls.analysis.report(floats.astype(np.float32), m, REF)
+        same = glmls.analysis.report(eight, m, REF)
+    assert report.summary["image"]["intensities"] == [low, high]
+    assert "intensities" not in same.summary["image"]
+    assert report.summary["construction"] == same.summary["construction"]
+    for name, picture in same.images.items():
+        assert_array_equal(report.images[name], picture)
+    assert_array_equal(as_rgb8(np.full((2, 3), -4.0))[..., 0], np.zeros((2, 3), np.uint8))
+    assert_array_equal(as_rgb8(np.full((2, 3), 4.0))[..., 0], np.full((2, 3), 255, np.uint8))
+
+
 def test_inverse_names_a_return_valid_that_is_not_a_bool(gl):
     with glmls.MLS(SRC, DST) as m:
         with pytest.raises(TypeError, match="return_valid must be True or False, got 1"):

@@ -30,6 +30,8 @@ __all__ = [
     "Canvas",
     "as_rgb8",
     "check_size",
+    "float_intensities",
+    "rgb8_intensities",
 ]
 
 _FULLSCREEN = "common/fullscreen.vert.glsl"
@@ -68,16 +70,37 @@ class _CanvasObjects:
         self.released = True
 
 
+def float_intensities(values: np.ndarray) -> tuple[float, float]:
+    """The intensities that :func:`as_rgb8` maps to 0 and 255 for float ``values`` (finite):
+    (0, 1) where every value lies in [0, 1]; else the values' least and greatest (from 0 to
+    the value where they are all one), so that an image of any range (a float TIFF of 0 to
+    255, say, or of -1 to 1) is pictured and measured whole, not clipped."""
+    lo, hi = float(values.min()), float(values.max())
+    if lo >= 0.0 and hi <= 1.0:
+        return 0.0, 1.0
+    if hi <= lo:  # one value: the scale from 0 to it
+        lo, hi = min(lo, 0.0), max(hi, 0.0)
+    return lo, hi
+
+
 def as_rgb8(image: object, name: str = "image") -> np.ndarray:
     """An image as (H, W, 3) uint8, from any image :func:`glmls.imread` gives: grey (H, W)
     or (H, W, 1), grey and alpha (H, W, 2), RGB or RGBA (alpha dropped); uint8, uint16
-    (scaled by 255 / 65535), or floats in [0, 1] (clipped to it)."""
+    (scaled by 255 / 65535), or floats: those in [0, 1] scaled by 255, others from their
+    least to their greatest value (:func:`float_intensities`)."""
+    return rgb8_intensities(image, name)[0]
+
+
+def rgb8_intensities(image: object, name: str = "image") -> tuple[np.ndarray, tuple | None]:
+    """:func:`as_rgb8`'s picture, and for a float image whose values leave [0, 1] the
+    intensities it mapped to 0 and 255 (:func:`float_intensities`), else None."""
     array = np.asarray(image)
     if array.ndim == 2:
         array = array[:, :, None]
     if array.ndim != 3 or not 1 <= array.shape[2] <= 4 or min(array.shape[:2]) < 1:
         raise ValueError(f"{name} must be (H, W) or (H, W, C) with C in 1..4, got {array.shape}")
     colour = array[:, :, :3] if array.shape[2] >= 3 else array[:, :, :1]
+    limits = None
     if array.dtype == np.uint8:
         rgb = colour
     elif array.dtype == np.uint16:
@@ -85,12 +108,13 @@ def as_rgb8(image: object, name: str = "image") -> np.ndarray:
     elif np.issubdtype(array.dtype, np.floating):
         if not np.isfinite(colour).all():
             raise ValueError(f"{name} holds NaN or infinite values")
-        rgb = np.round(np.clip(colour, 0.0, 1.0) * 255).astype(np.uint8)
+        colour = colour.astype(np.float64)
+        lo, hi = float_intensities(colour)
+        limits = None if (lo, hi) == (0.0, 1.0) else (lo, hi)
+        rgb = np.round(np.clip((colour - lo) / (hi - lo), 0.0, 1.0) * 255).astype(np.uint8)
     else:
-        raise DtypeError(
-            f"{name} must be uint8, uint16 or float in [0, 1], got dtype {array.dtype}"
-        )
-    return np.ascontiguousarray(np.broadcast_to(rgb, (*rgb.shape[:2], 3)))
+        raise DtypeError(f"{name} must be uint8, uint16 or float, got dtype {array.dtype}")
+    return np.ascontiguousarray(np.broadcast_to(rgb, (*rgb.shape[:2], 3))), limits
 
 
 def _opacity(opacity: object) -> float:

@@ -117,7 +117,8 @@ def render_handles(
     ----------
     image : array_like
         The picture's background: (H, W) or (H, W, C) with C in 1..4, uint8, uint16 or
-        floats in [0, 1]; its size is the picture's.
+        floats (in [0, 1], or scaled from their least to their greatest value); its size
+        is the picture's.
     src, dst : array_like
         Point handles, (N, 2) each.
     src_segments, dst_segments : array_like, optional
@@ -183,7 +184,8 @@ def render_triangulation(
     ----------
     image : array_like
         The picture's background: (H, W) or (H, W, C) with C in 1..4, uint8, uint16 or
-        floats in [0, 1]; its size is the picture's.
+        floats (in [0, 1], or scaled from their least to their greatest value); its size
+        is the picture's.
     points : array_like
         The vertices, (N, 2).
     simplices : array_like
@@ -271,7 +273,8 @@ def render_triangle_errors(
     ----------
     image : array_like
         The picture's background: (H, W) or (H, W, C) with C in 1..4, uint8, uint16 or
-        floats in [0, 1]; its size is the picture's.
+        floats (in [0, 1], or scaled from their least to their greatest value); its size
+        is the picture's.
     errors : TriangleErrors
         As :func:`triangle_errors` returns them.
     which : {"angle", "distance"}, optional
@@ -361,7 +364,8 @@ def render_mesh(
     ----------
     image : array_like
         The picture's background: (H, W) or (H, W, C) with C in 1..4, uint8, uint16 or
-        floats in [0, 1]; its size is the picture's.
+        floats (in [0, 1], or scaled from their least to their greatest value); its size
+        is the picture's.
     deformed : array_like
         The deformed mesh's vertices, (rows, columns, 2), e.g. ``MLS.mesh(...)[1]``.
     color : sequence of float, optional
@@ -437,7 +441,8 @@ def render_construction_errors(
     ----------
     image : array_like
         The picture's background: (H, W) or (H, W, C) with C in 1..4, uint8, uint16 or
-        floats in [0, 1]; its size is the picture's.
+        floats (in [0, 1], or scaled from their least to their greatest value); its size
+        is the picture's.
     errors : ConstructionErrors
         As :func:`construction_errors` returns them.
     deformed : bool, optional

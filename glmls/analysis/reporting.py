@@ -19,7 +19,7 @@ from ..forking import renderer
 from ..imaging.frame import Frame
 from ..imaging.options import WarpOptions, default
 from . import colormaps
-from .canvas import as_rgb8
+from .canvas import as_rgb8, rgb8_intensities
 from .construction import (
     DEFAULT_RADIUS,
     ConstructionErrors,
@@ -264,7 +264,10 @@ def report(
     Parameters
     ----------
     image : array_like
-        (H, W) or (H, W, C) with C in 1..4: uint8, uint16, or floats in [0, 1].
+        (H, W) or (H, W, C) with C in 1..4: uint8, uint16, or floats, finite. The report
+        pictures, warps and measures (the construction error) its 8-bit RGB copy: uint16
+        scaled by 255 / 65535, floats in [0, 1] by 255, floats of any other range from their
+        least to their greatest value (``summary["image"]["intensities"]``), not clipped.
     m : MLS
         The deformation.
     reference_points : array_like
@@ -344,8 +347,11 @@ def report(
     >>> found.summary["foldovers"], found.summary["triangles"]["flipped"]
     ({'grid': 1, 'cells': 0}, 0)
     """
-    rgb = as_rgb8(image)
+    rgb, limits = rgb8_intensities(image)
     shape = rgb.shape[:2]
+    described = {"height": shape[0], "width": shape[1]}
+    if limits is not None:  # a float image beyond [0, 1]: measured as scaled from there
+        described["intensities"] = list(limits)
     for method_of_m in ("error_field", "mesh", "warp", "bounds"):
         check_deformation(m, method_of_m)
     triangle_error = check_choice("triangle_error", triangle_error, ("angle", "distance"))
@@ -454,7 +460,7 @@ def report(
 
     config = dataclasses.asdict(m.config)
     summary = {
-        "image": {"height": shape[0], "width": shape[1]},
+        "image": described,
         "configuration": config
         | {
             "radius_used": m.config.resolve_radius(shape),
