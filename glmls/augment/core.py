@@ -29,7 +29,7 @@ from .params import (
     fresh,
     jsonable,
     label_options_of,
-    param_points,
+    param_handles,
 )
 from .presets import preset_defaults, preset_from
 
@@ -607,13 +607,7 @@ class Augment:
         points, parts = self._points(marks, box_list, polygon_list, meshes, labels)
         options |= {k: v for k, v in self.warp_options.items() if k in _UNRECORDED}
         if src is None:
-            src, dst = param_points(params, "src"), param_points(params, "dst")
-            for i, (p, q) in enumerate(zip(src, dst, strict=True)):
-                if len(p) != len(q):
-                    raise ValueError(
-                        f"params[{i}]['src'] and params[{i}]['dst'] hold {len(p)} and "
-                        f"{len(q)} points"
-                    )
+            src, dst = param_handles(params)
         result = warp_batch(images, src, dst, keypoints=points, masks=masks, **options)
         if not isinstance(result, BatchResult):
             result = BatchResult(images=result)

@@ -35,6 +35,7 @@ __all__ = [
     "fresh",
     "jsonable",
     "label_options_of",
+    "param_handles",
     "param_points",
 ]
 
@@ -259,6 +260,18 @@ def _check_shape(shape: object, name: str) -> None:
         raise TypeError(message)
     if min(operator.index(n) for n in shape) < 1:
         raise ValueError(message)
+
+
+def param_handles(params: Sequence[Mapping]) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Each draw's source and target points (:func:`param_points`), ``ValueError`` naming
+    the draw whose counts differ."""
+    src, dst = param_points(params, "src"), param_points(params, "dst")
+    for i, (p, q) in enumerate(zip(src, dst, strict=True)):
+        if len(p) != len(q):
+            raise ValueError(
+                f"params[{i}]['src'] and params[{i}]['dst'] hold {len(p)} and {len(q)} points"
+            )
+    return src, dst
 
 
 def param_points(params: Sequence[Mapping], key: str) -> list[np.ndarray]:
