@@ -6,9 +6,9 @@ mesh, with N random handles in a 256^3 volume.
 
 Prints the best of ``--repeat`` calls after an untimed one: seconds and millions of points per
 second for ``m(points)`` (one dispatch, one read-back), ``m.jacobian(points)`` (f and J, the
-solve's derivative: f, then one pass over the handles per axis) and ``m.deform`` of a mesh with that many
-vertices (f, J, the normals and the folds, all on the GPU), and for comparison the float64
-numpy reference of the normals and folds from the same f and J
+solve's derivative: f, then one pass over the handles per axis) and ``m.deform`` of a mesh
+with that many vertices (f, J, the normals and the folds, all on the GPU), and for
+comparison the float64 numpy reference of the normals and folds from the same f and J
 (``glmls.core.mesh3.deform_mesh``). The targets are the handles moved by N(0, 8) voxels
 (``--targets moved``) or projected onto a plane turned off the axes through the volume's
 centre (``--targets plane``: with ``--transform affine`` f flattens the mesh, and the exact
