@@ -11,7 +11,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from ..batch.inputs import check_point_sets, item_array
+from ..batch.inputs import check_counts, check_point_sets, item_array
 from ..batch.run import check_flags
 from ..core.config import MLSConfig, check_flag, counted, is_integer
 from ..core.handles import COORDINATE_LIMIT
@@ -266,11 +266,7 @@ def param_handles(params: Sequence[Mapping]) -> tuple[list[np.ndarray], list[np.
     """Each draw's source and target points (:func:`param_points`), ``ValueError`` naming
     the draw whose counts differ."""
     src, dst = param_points(params, "src"), param_points(params, "dst")
-    for i, (p, q) in enumerate(zip(src, dst, strict=True)):
-        if len(p) != len(q):
-            raise ValueError(
-                f"params[{i}]['src'] and params[{i}]['dst'] hold {len(p)} and {len(q)} points"
-            )
+    check_counts(src, dst, lambda i, key: f"params[{i}][{key!r}]")
     return src, dst
 
 

@@ -19,6 +19,7 @@ __all__ = [
     "BatchInput",
     "check_batch",
     "check_batch_image",
+    "check_counts",
     "check_point_sets",
     "check_points",
     "item_array",
@@ -195,6 +196,18 @@ def _point_items(value: object, name: str, *, rows: str) -> tuple[list[np.ndarra
     return _checked_stack(value, lambda i: f"{name}[{i}]", rows=rows), True
 
 
+def check_counts(
+    src: Sequence[np.ndarray], dst: Sequence[np.ndarray], name_of: Callable[[int, str], str]
+) -> None:
+    """``ValueError`` naming item i's point sets (``name_of(i, "src")``, ``name_of(i,
+    "dst")``) where its sources and targets differ in number."""
+    for i, (p, q) in enumerate(zip(src, dst, strict=True)):
+        if len(p) != len(q):
+            raise ValueError(
+                f"{name_of(i, 'src')} and {name_of(i, 'dst')} hold {len(p)} and {len(q)} points"
+            )
+
+
 def check_point_sets(
     items: Sequence[np.ndarray], name_of: Callable[[int], str], *, rows: str
 ) -> list[np.ndarray]:
@@ -271,9 +284,7 @@ def check_batch(
                 f"{name} holds {counted(len(items), 'handle set')} for {counted(count, 'image')}"
             )
         handles.append(items)
-    for i, (p, q) in enumerate(zip(*handles, strict=True)):
-        if len(p) != len(q):
-            raise ValueError(f"src[{i}] and dst[{i}] hold {len(p)} and {len(q)} points")
+    check_counts(*handles, lambda i, key: f"{key}[{i}]")
     _check_targets(*handles)
     points, stacked_points = None, False
     if keypoints is not None:
