@@ -284,19 +284,33 @@ void mls3_centred64(inout MLS3Sums64 s, out dvec3 dp, out dvec3 de) {
     s.D -= outerProduct(s.P, de);
 }
 
+// The last mls3_finish_full's centred float64 moments, their centre (p* - p_o, e* - e_o)
+// and N, where v did not snap (mls3_full_kept; mls3_finish clears it): mls3_ridge_rows
+// differentiates the solve from there rather than summing and solving again.
+bool mls3_full_kept = false;
+MLS3Sums64 mls3_full_sums;
+dvec3 mls3_full_dp;
+dvec3 mls3_full_de;
+dmat3 mls3_full_N;
+
 // f at a point that mls3_solve left: its moments summed again in float64 and every rule of
 // the solve (mls3_solve_full)
 MLS3Result mls3_finish_full(MLS3Accum a) {
     MLS3Sums64 s = mls3_sums64(a);
     dvec3 pst = dvec3(a.op);
     dvec3 est = dvec3(a.oe);
+    dvec3 dp = dvec3(0.0lf), de = dvec3(0.0lf);
     if (!a.hit) {
-        dvec3 dp, de;
         mls3_centred64(s, dp, de);
         pst += dp;
         est += de;
     }
     dmat3 N = mls3_solve_full(s.Ad, s.Ao, s.D, double(mls_yardstick(a.yard)));
+    mls3_full_kept = !a.hit;
+    mls3_full_sums = s;
+    mls3_full_dp = dp;
+    mls3_full_de = de;
+    mls3_full_N = N;
     MLS3Result r;
     r.d = vec3(est + (dvec3(a.v) - pst) * N);
     r.f = a.v + r.d;
@@ -327,6 +341,9 @@ void mls3_centred(MLS3Accum a, out vec3 dp, out vec3 de, out vec3 ad, out vec3 a
 MLS3Result mls3_finish(MLS3Accum a) {
     mls3_solve_plain = false;
     mls3_solve_polar = mat3(0.0);
+#if !MLS3_SOLVE_LATER
+    mls3_full_kept = false;
+#endif
     if (!a.hit && !(a.W > 0.0)) {
         return mls3_identity(a.v);   // no handle reaches v (or there are none)
     }
@@ -634,11 +651,18 @@ MLS3Accum mls3_slope_sums(MLS3Accum a, MLS3Accum zero, int axis) {
 // within ~1e-3 of the trace, so the differences' O(t^2) error is ~1e-6 of N'; float64's
 // rounding over t, ~1e-10), where differences of f over a step h in v (mls3_jacobian) err
 // by h^2 f''', a few 1e-2 of J in a gaussian's tail (R = 4, handles 15-25 voxels apart).
-// One call site of the solve, in a loop (its code is most of a program's: one copy).
+// One call site of the solve, in a loop (its code is most of a program's: one copy). Where
+// f came from mls3_finish_full at a (mls3_full_kept), its moments and N are taken as they
+// are; else (the plain branch's f, whose derivative failed) summed and solved here.
 mat3 mls3_ridge_rows(MLS3Accum a, MLS3Accum s[3], vec3 v) {
-    MLS3Sums64 m = mls3_sums64(a);
-    dvec3 dp, de;
-    mls3_centred64(m, dp, de);
+    bool kept = mls3_full_kept;
+    MLS3Sums64 m = mls3_full_sums;
+    dvec3 dp = mls3_full_dp, de = mls3_full_de;
+    dmat3 N = mls3_full_N;
+    if (!kept) {
+        m = mls3_sums64(a);
+        mls3_centred64(m, dp, de);
+    }
     double spread = double(mls_yardstick(a.yard));
     double invW = 1.0lf / m.W;
     dvec3 dp1[3], de1[3], a1[3], o1[3];
@@ -658,9 +682,8 @@ mat3 mls3_ridge_rows(MLS3Accum a, MLS3Accum s[3], vec3 v) {
     }
     double mu = m.Ad.x + m.Ad.y + m.Ad.z;
     double t = largest > 0.0lf ? 1e-6lf * mu / largest : 1.0lf;
-    dmat3 N = dmat3(0.0lf);
     dmat3 N1[3];
-    for (int k = 0; k < 7; ++k) {
+    for (int k = kept ? 1 : 0; k < 7; ++k) {
         // k = 0 the moments themselves; 2 a + 1 and 2 a + 2 along axis a, up and down
         int axis = max(k - 1, 0) / 2;
         double step = k == 0 ? 0.0lf : ((k & 1) == 1 ? t : -t);
