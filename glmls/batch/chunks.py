@@ -98,25 +98,30 @@ class _GPURun:
             taken = [i for i in indices if not self.own[i]]
             found, short = batch_margins(quads.ctx, self.config, batch, taken, lattice, frame)
             parts = [(lattice.with_margin(m), part) for m, part in sorted(found.items())]
-        direct = None
+        direct, outputs = None, None
         if takes(options, first.dtype, quads.fused):  # the constant border: one part
             direct = _Direct(batch, indices, options, frame)
+        else:
+            outputs = _Outputs.of(batch, indices, options, frame)
         for mesh, part in parts:
             if not fits(quads.ctx, source.shape, frame, mesh):
                 if direct is not None:
                     direct.complete = False
                 continue  # the single pipeline, in bands
-            self._part(part, mesh, frame, source, direct)
+            self._part(part, mesh, frame, source, (direct, outputs))
         if not self.backward:  # backward warns nowhere: Newton needs no mesh there
             warn_short(short, self.results, stacklevel=5)  # warp_batch's caller
-        if direct is not None and direct.complete and alone:
-            self.whole["images"] = direct.out
-            if direct.labels is not None:
-                self.whole["masks"] = direct.labels
+        held = direct if direct is not None else outputs
+        if held is not None and held.complete and alone:
+            self.whole["images"] = held.out
+            if held.labels is not None:
+                self.whole["masks"] = held.labels
 
-    def _part(self, part: list[int], mesh, frame, source, direct) -> None:
-        """The images ``part`` of one group on one ``mesh`` lattice, chunk by chunk."""
+    def _part(self, part: list[int], mesh, frame, source, holders) -> None:
+        """The images ``part`` of one group on one ``mesh`` lattice, chunk by chunk
+        (``holders``: the group's :class:`_Direct` and :class:`_Outputs`, or None each)."""
         batch, quads, budget = self.batch, self.quads, self.budget
+        direct, outputs = holders
         if self.backward:  # an image of its own MLS takes the single path, not its chunk
             part = [i for i in part if not self.own[i]]
         size = chunk_size(quads.ctx, source, frame, mesh, budget, backward=self.backward)
@@ -126,11 +131,14 @@ class _GPURun:
             )
         for start in range(0, len(part), size):
             chunk = part[start : start + size]
-            done = self._chunk(chunk, mesh, frame, source, direct, start)
+            into = (None, None) if outputs is None else outputs.slot(chunk)
+            done = self._chunk(chunk, mesh, frame, source, direct, start, into)
             if done is None:  # the keys do not fit: the single path takes the chunk
                 if direct is not None:
                     direct.complete = False
                 continue
+            if outputs is not None:
+                outputs.commit(chunk, done)
             for i, labels in zip(chunk, done, strict=True):
                 self.results[i] = labels
         if batch.keypoints is not None and not self.backward:
@@ -138,9 +146,12 @@ class _GPURun:
             batched = (self.quads, self.config, self.own)
             _beyond_mesh_by_f(self.results, part, batch, mesh, frame, own_mls, batched)
 
-    def _chunk(self, chunk, lattice, frame, source, direct, start) -> list[ImageLabels] | None:
+    def _chunk(
+        self, chunk, lattice, frame, source, direct, start, into
+    ) -> list[ImageLabels] | None:
         """One chunk through the GPU path on ``lattice`` (``direct``: the group's
-        :class:`_Direct` where it takes the chunk, ``start`` the chunk's place there)."""
+        :class:`_Direct` where it takes the chunk, ``start`` the chunk's place there;
+        ``into``: the arrays its images and masks are read into, :meth:`_Outputs.slot`)."""
         batch = self.batch
         with ExitStack() as stack:
             if self.config is not None and not any(self.own[i] for i in chunk):
@@ -169,10 +180,10 @@ class _GPURun:
                 args = (self.quads, self.warper, batch, chunk, lattices, self.options, frame)
                 args += (lattice, self.maps)
                 if self.swap:
-                    return _chunk(*args, swap=(self.warper, self.mls_options))
+                    return _chunk(*args, swap=(self.warper, self.mls_options), into=into)
                 if direct is not None:
                     return direct.chunk(start, *args)
-                return _chunk(*args)
+                return _chunk(*args, into=into)
 
 
 def _beyond_mesh_by_f(results, indices, batch, lattice, frame, own_mls, batched) -> None:
@@ -289,6 +300,57 @@ class _Direct:
         return _finish(quads, batch, chunk, lattices, options, frame, *labels)
 
 
+class _Outputs:
+    """A group's 8-bit warped images (and uint8 masks) in one array each, which a chunk's
+    read-back fills in place where its images are consecutive in the group (else arrays of
+    its own, then copied there): :func:`warp_batch` returns them as they are where the group
+    is the whole batch, instead of stacking every image's result again."""
+
+    def __init__(self, batch: BatchInput, indices: list[int], frame, masks: bool) -> None:
+        first = batch.images[indices[0]]
+        self.place = {i: n for n, i in enumerate(indices)}
+        self.out = np.empty((len(indices), *frame.shape, *first.shape[2:]), np.uint8)
+        self.labels = np.empty((len(indices), *frame.shape), np.uint8) if masks else None
+        self.written = np.zeros(len(indices), bool)
+
+    @classmethod
+    def of(cls, batch: BatchInput, indices: list[int], options: WarpOptions, frame):
+        """The group's arrays where its images are uint8 (None else); its masks' where they
+        are uint8 and do not ride as a channel of the images (``packable``)."""
+        first = batch.images[indices[0]]
+        if first.dtype != np.uint8:
+            return None
+        masks = batch.masks
+        if masks is not None and packable(first, masks[indices[0]], options):
+            return None  # the images' read-back holds the masks: they are split after it
+        labelled = masks is not None and all(masks[i].dtype == np.uint8 for i in indices)
+        return cls(batch, indices, frame, labelled)
+
+    @property
+    def complete(self) -> bool:
+        """Did the chunks write every image of the group?"""
+        return bool(self.written.all())
+
+    def slot(self, chunk: list[int]) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """The arrays the chunk's images and masks are read into: the group's rows where
+        the chunk's images are consecutive there, else None (:meth:`commit` copies them)."""
+        first = self.place[chunk[0]]
+        if any(self.place[i] != first + n for n, i in enumerate(chunk)):
+            return None, None
+        view = slice(first, first + len(chunk))
+        return self.out[view], None if self.labels is None else self.labels[view]
+
+    def commit(self, chunk: list[int], done: list[ImageLabels]) -> None:
+        """The chunk's results ``done`` in the group's arrays: those read elsewhere copied."""
+        places = np.array([self.place[i] for i in chunk])
+        for array, values in ((self.out, [r.image for r in done]), (self.labels, done)):
+            if array is not None and values is done:
+                values = [r.mask for r in done]
+            if array is not None and values[0].base is not array:
+                array[places] = values
+        self.written[places] = True
+
+
 def _slab(array: np.ndarray | None, items: list[np.ndarray] | None, chunk: list[int]):
     """The chunk's items as one C-contiguous array: a slice of ``array`` where they are
     consecutive in it (no copy for a C-contiguous array), else stacked."""
@@ -332,12 +394,16 @@ def _drop_last(rgba: np.ndarray, squeeze: bool) -> np.ndarray:
     return out
 
 
-def _chunk(quads, warper, batch, chunk, lattices, options, frame, lattice, maps, swap=None):
+def _chunk(
+    quads, warper, batch, chunk, lattices, options, frame, lattice, maps, swap=None, into=None
+):
     limit = warper.pipeline.max_image_size
+    into = (None, None) if into is None else into
     images = [batch.images[i] for i in chunk]
     masks = None if batch.masks is None else [batch.masks[i] for i in chunk]
     packed = masks is not None and packable(images[0], masks[0], options)
-    if packed:  # each label rides as one more channel of its image
+    if packed:  # each label rides as one more channel of its image (read back with it)
+        into = (None, None)
         channels = images[0].shape[2] if images[0].ndim == 3 else 1
         both = np.empty((len(images), *images[0].shape[:2], channels + 1), np.uint8)
         add_channel(np.stack(images), np.stack(masks), both)
@@ -353,13 +419,13 @@ def _chunk(quads, warper, batch, chunk, lattices, options, frame, lattice, maps,
     if masks is not None and not packed:  # the labels from the images' scan (or maps)
         label_sources = prepare_images([mask_form(m) for m in masks], limit, normalized=True)
         both = (label_sources, background_color(0.0, label_sources[0]))
-        done = warp(lattices, sources, options, frame, background, lattice, both)
+        done = warp(lattices, sources, options, frame, background, lattice, both, into=into)
         if done is None:
             return None
         out, warped = done
         warped_masks = [restore_mask(w, masks[0].dtype) for w in warped]
     else:
-        out = warp(lattices, sources, options, frame, background, lattice)
+        out = warp(lattices, sources, options, frame, background, lattice, into=into)
     if out is None:
         return None
     if packed:

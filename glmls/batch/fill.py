@@ -13,9 +13,17 @@ from ..gl import bindings
 from ..gl.context import GLContext
 from ..gl.dispatch import ScanPieces, run_1d, set_uniforms
 from ..gl.resources import Resources
-from ..imaging.source import SourceImage, texture_data, texture_form
+from ..imaging.source import SourceImage, as_rgba8, texture_form
 
-__all__ = ["SourceArrays", "check_embeddings", "embedding_flags", "image_format", "runs", "scan"]
+__all__ = [
+    "SourceArrays",
+    "array_form",
+    "check_embeddings",
+    "embedding_flags",
+    "image_format",
+    "runs",
+    "scan",
+]
 
 #: The scans' lists before the test: no image listed, indirect dispatches of none.
 _NO_LISTS = np.array([0, 1, 1, 0, 0, 1, 1, 0, 0, 0, 0, 0], np.uint32).tobytes()
@@ -129,7 +137,7 @@ class SourceArrays:
         """A texture array holding ``sources`` in its first layers, one of the two forms of
         ``role`` last used (a chunk's images and its labels, drawn together, each have their
         own)."""
-        (width, height), components, dtype = texture_form(sources[0])
+        (width, height), components, dtype = array_form(sources[0])
         key = (role, width, height, components, dtype)
         array = self._arrays.get(key)
         if array is None or array.layers < len(sources):
@@ -157,15 +165,28 @@ class SourceArrays:
             self.upload(labels, "labels").use(bindings.LABEL_SOURCES.index)
 
 
+def array_form(source: SourceImage) -> tuple[tuple[int, int], int, str]:
+    """(size, components, dtype) of a layer of the texture array that holds ``source``: its
+    :func:`~glmls.imaging.source.texture_form`, except that an 8-bit image of one or two
+    channels (a label image, a grey one) keeps them (R8, RG8: a quarter or a half of the
+    bytes to upload, none to convert). The batch's shaders read the arrays by ``texelFetch``
+    alone, which gives the missing channels 0 and alpha 1, as the RGBA8 texel of
+    :func:`~glmls.imaging.source.as_rgba8` holds them: the same values."""
+    size, components, dtype = texture_form(source)
+    if source.normalized and source.channels in (1, 2):
+        return size, source.channels, dtype
+    return size, components, dtype
+
+
 def _texture_stack(sources: list[SourceImage]) -> np.ndarray:
-    """The sources' texture data (:func:`texture_data`) one after the other, converted as
-    one image (an RGB chunk to RGBA in one pass)."""
-    data = np.stack([s.data for s in sources])
-    return np.ascontiguousarray(texture_data(_stacked(sources[0], data)))
-
-
-def _stacked(first: SourceImage, data: np.ndarray) -> SourceImage:
-    """The chunk's data (N, H, W, C) as one tall image of ``first``'s form."""
-    count, height, width, channels = data.shape
-    tall = data.reshape(count * height, width, channels)
-    return SourceImage(tall, first.dtype, first.squeeze, first.normalized)
+    """The sources' layers (:func:`array_form`) one after the other: RGB converted to RGBA
+    image by image straight into the stack (one pass over the pixels, not a stack and then
+    a conversion), the others stacked as they are."""
+    first = sources[0]
+    if not (first.normalized and first.channels == 3):
+        return np.stack([s.data for s in sources])
+    height, width = first.shape
+    stack = np.empty((len(sources), height, width, 4), np.uint8)
+    for layer, source in zip(stack, sources, strict=True):
+        as_rgba8(source.data, layer)
+    return stack

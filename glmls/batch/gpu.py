@@ -59,9 +59,9 @@ from ..imaging.inverse import ACCEPT_STEPS, NEWTON_ACCEPT, NEWTON_STEPS, NEWTON_
 from ..imaging.options import WarpOptions
 from ..imaging.quads import key_layout
 from ..imaging.readback import read_rgba8
-from ..imaging.source import BORDERS, SourceImage, texture_form
+from ..imaging.source import BORDERS, SourceImage
 from .drawer import BatchDrawer, mesh_stride, upload_meshes
-from .fill import embedding_flags, runs, scan
+from .fill import array_form, embedding_flags, runs, scan
 from .labels import MeshVertices
 
 __all__ = [
@@ -97,7 +97,7 @@ def chunk_size(
     """Images per chunk: the atlas within the GL texture size, the sources within the array
     layers, and the chunk's GPU memory within ``max_bytes`` (``backward``: with the atlas of
     backward maps, RGBA32F)."""
-    (width, height), components, dtype = texture_form(source)
+    (width, height), components, dtype = array_form(source)
     texel = components * (1 if dtype == "f1" else 4)
     target = 4 if source.normalized else 16
     per_image = width * height * texel + frame.pixels * (target + 8) + mesh_stride(lattice)
@@ -144,11 +144,15 @@ def _read_coords(mgl, framebuffer, atlas, count: int, frame: Frame, covered: int
     return values_out[..., :2].copy(), values_out[..., covered] > 0.5
 
 
-def _read_atlas(mgl, framebuffer, atlas, source: SourceImage, count: int, frame: Frame):
-    """The atlas read back as (N, H, W, C) in the sources' dtype."""
+def _read_atlas(mgl, framebuffer, atlas, source: SourceImage, count: int, frame: Frame, out=None):
+    """The atlas read back as (N, H, W, C) in the sources' dtype (``out``: 8-bit sources' (N,
+    H, W[, C]) uint8 array, C-contiguous, read into and returned)."""
     out_w, out_h = frame.size
     with keep_framebuffer(mgl):
         framebuffer.use()
+        if source.normalized and out is not None:
+            read_rgba8(framebuffer, atlas, source.channels, out.reshape(atlas[1], out_w, -1))
+            return out
         if source.normalized:
             values_out = read_rgba8(framebuffer, atlas, source.channels)
         else:
@@ -256,10 +260,12 @@ class BatchQuads(BatchDrawer):
         background: tuple[float, float, float, float],
         lattice: MeshLattice,
         labels: tuple[list[SourceImage], tuple[float, float, float, float]] | None = None,
+        into: tuple[np.ndarray | None, np.ndarray | None] = (None, None),
     ):
         """The chunk's images warped by ``backward`` (``lattice``: the first guess's mesh, past
         the images by the margin of a border mode; ``labels``: as :meth:`warp`'s, sampled
-        nearest at the same maps, (images, labels) returned): the quads' source
+        nearest at the same maps, (images, labels) returned; ``into``: as :meth:`warp`'s):
+        the quads' source
         points as the first guess (:meth:`coords`' fill), Newton on each image's f for every
         output pixel of every image in one dispatch (``warp/inverse.comp.glsl`` with
         ``MLS_BATCH``), one draw sampling the sources (``batch/backward.frag.glsl``), one
@@ -300,27 +306,30 @@ class BatchQuads(BatchDrawer):
             set_uniforms(rescue, uniforms)
             second.finish(rescue)
         mgl.memory_barrier()
-        return self.sample_maps(sources, coords, atlas, frame, options, background, labels)
+        maps = (coords, atlas, frame)
+        return self.sample_maps(sources, maps, options, background, labels, into)
 
-    def sample_maps(self, sources, coords, atlas, frame, options, background, labels):
-        """The chunk's ``sources`` sampled at its backward maps ``coords`` (by ``options``'
-        interpolation and border), read back, and with ``labels`` (the label images and
-        their background) those sampled nearest at the same maps: as :meth:`backward`
-        returns."""
+    def sample_maps(self, sources, maps, options, background, labels, into=(None, None)):
+        """The chunk's ``sources`` sampled at its backward maps (``maps``: the maps' texture,
+        the atlas's size and the frame; by ``options``' interpolation and border), read back,
+        and with ``labels`` (the label images and their background) those sampled nearest at
+        the same maps: as :meth:`backward` returns (``into``: as :meth:`warp`'s)."""
         linear = options.interpolation == "linear"
         border = BORDERS.index(options.border)
-        out = self._sample(sources, coords, atlas, frame, background, linear, border, "atlas")
+        out = self._sample(sources, maps, background, (linear, border), "atlas", into[0])
         if labels is None:
             return out
         label_sources, zero = labels
-        warped = self._sample(
-            label_sources, coords, atlas, frame, zero, False, border, "labels atlas"
-        )
+        warped = self._sample(label_sources, maps, zero, (False, border), "labels atlas", into[1])
         return out, warped
 
-    def _sample(self, sources, coords, atlas, frame, background, linear, border, name):
-        """``sources`` sampled at the backward maps ``coords`` into the atlas framebuffer
-        ``name`` (``background`` where no map point is), read back (batch/backward.frag.glsl)."""
+    def _sample(self, sources, maps, background, rule, name, out):
+        """``sources`` sampled at the backward maps (``maps``: their texture, the atlas's
+        size, the frame) by ``rule`` (bilinear, the WARP_BORDER code) into the atlas
+        framebuffer ``name`` (``background`` where no map point is), read back
+        (batch/backward.frag.glsl; into ``out`` where given)."""
+        coords, atlas, frame = maps
+        linear, border = rule
         source = sources[0]
         height, width = source.shape
         gl, mgl = self._gl, self._gl.mgl
@@ -338,7 +347,7 @@ class BatchQuads(BatchDrawer):
             coords.use(bindings.COORDS.index)
             mgl.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
             self._resources.vertex_array(program).render(moderngl.TRIANGLES, vertices=3)
-        return _read_atlas(mgl, target, atlas, source, len(sources), frame)
+        return _read_atlas(mgl, target, atlas, source, len(sources), frame, out)
 
     def backward_coords(self, count: int, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
         """The last :meth:`backward`'s maps: (N, H, W, 2) float32 source points and (N, H,
@@ -442,6 +451,7 @@ class BatchQuads(BatchDrawer):
         background: tuple[float, float, float, float],
         lattice: MeshLattice,
         labels: tuple[list[SourceImage], tuple[float, float, float, float]] | None = None,
+        into: tuple[np.ndarray | None, np.ndarray | None] = (None, None),
     ):
         """The chunk's images warped (``lattices``: their handles, a
         :class:`~glmls.engine.batched.BatchLattices` or :class:`KernelLattices`; ``lattice``:
@@ -455,7 +465,9 @@ class BatchQuads(BatchDrawer):
         sampling from the same scan: its keys then carry the nearest source pixel, and a
         bilinear fill of the images takes only the winning triangle from them (the one the
         keys without source pixels pick: those bits rank below the triangle's). Returns
-        (images, labels) then."""
+        (images, labels) then. ``into``: arrays of 8-bit images and labels, (N, H, W[, C])
+        uint8 and C-contiguous, or None each, that the read-back fills and returns (a batch's
+        result written in place)."""
         self._scan_folded = None
         height, width = sources[0].shape
         linear = options.interpolation == "linear"
@@ -506,9 +518,10 @@ class BatchQuads(BatchDrawer):
         fill = (winner, linear, border)
         if labels is None:
             self._resolve(values, atlas, framebuffer, *fill, keyed=keyed)  # 3.
-            return _read_atlas(mgl, framebuffer, atlas, source, count, frame)  # 4.
+            return _read_atlas(mgl, framebuffer, atlas, source, count, frame, into[0])  # 4.
         # 3. into a second attachment of the same draw
         both = self._resources.attached("atlas and labels", ("atlas", "labels atlas"))
         self._resolve(values, atlas, both, *fill, labels=True, keyed=keyed)
-        out = _read_atlas(mgl, framebuffer, atlas, source, count, frame)  # 4.
-        return out, _read_atlas(mgl, label_buffer, atlas, label_sources[0], count, frame)
+        out = _read_atlas(mgl, framebuffer, atlas, source, count, frame, into[0])  # 4.
+        label_source = label_sources[0]
+        return out, _read_atlas(mgl, label_buffer, atlas, label_source, count, frame, into[1])

@@ -53,11 +53,13 @@ def warp_swapped(
     background: tuple[float, float, float, float],
     lattice,
     labels: tuple[list[SourceImage], tuple[float, float, float, float]] | None = None,
+    into: tuple[np.ndarray | None, np.ndarray | None] = (None, None),
 ):
     """The chunk's images warped by ``backward-swap`` (``lattices``: their
     :func:`swapped_lattices`; ``lattice``: the images' mesh, whose points the pass does not
     read; ``labels``: the chunk's label images and their background, sampled nearest at the
-    same maps), as :meth:`BatchQuads.backward` returns. The maps stay in the ``coords`` atlas
+    same maps; ``into``: as :meth:`BatchQuads.warp`'s), as :meth:`BatchQuads.backward`
+    returns. The maps stay in the ``coords`` atlas
     (:meth:`BatchQuads.backward_coords`)."""
     gl = quads.ctx
     mgl = gl.mgl
@@ -79,7 +81,8 @@ def warp_swapped(
             coords.bind_to_image(bindings.INVERSE_MAP.index, read=True, write=True)
             program.run(group_x=groups[0], group_y=groups[1], group_z=rows)
         mgl.memory_barrier()
-        return quads.sample_maps(sources, coords, atlas, frame, options, background, labels)
+        maps = (coords, atlas, frame)
+        return quads.sample_maps(sources, maps, options, background, labels, into)
 
 
 def swapped_keypoints(

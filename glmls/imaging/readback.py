@@ -21,15 +21,22 @@ STRIP_BYTES = 1 << 20
 
 
 def read_rgba8(
-    framebuffer: moderngl.Framebuffer, size: tuple[int, int], channels: int
+    framebuffer: moderngl.Framebuffer,
+    size: tuple[int, int],
+    channels: int,
+    out: np.ndarray | None = None,
 ) -> np.ndarray:
     """The first ``channels`` (1-4) of ``framebuffer``'s RGBA8 colour attachment over
     (0, 0, width, height) = ``size``, as a new writable (height, width, channels) uint8 array,
-    row 0 the framebuffer's first row."""
+    row 0 the framebuffer's first row, or written into ``out`` (such an array, C-contiguous:
+    a batch's rows read straight into the caller's result) and returned."""
     if channels not in (1, 2, 3, 4):
         raise ValueError(f"channels must be 1, 2, 3 or 4, got {channels!r}")
     width, height = size
-    out = np.empty((height, width, channels), np.uint8)
+    if out is None:
+        out = np.empty((height, width, channels), np.uint8)
+    elif out.shape != (height, width, channels) or not out.flags.c_contiguous:
+        raise ValueError(f"out must be C-contiguous {(height, width, channels)}, got {out.shape}")
     if channels == 4 or width == 0 or height == 0:
         framebuffer.read_into(out, (0, 0, width, height), channels, alignment=1, dtype="f1")
         return out

@@ -45,7 +45,15 @@ def test_equals_single_warps(gl, rng, method, interpolation):
 
 @pytest.mark.parametrize(
     ("dtype", "channels"),
-    [(np.uint8, 0), (np.uint8, 4), (np.uint16, 3), (np.float32, 1), (np.float32, 4)],
+    [
+        (np.uint8, 0),
+        (np.uint8, 1),
+        (np.uint8, 2),
+        (np.uint8, 4),
+        (np.uint16, 3),
+        (np.float32, 1),
+        (np.float32, 4),
+    ],
 )
 @pytest.mark.parametrize("method", ["quads", "backward"])
 def test_dtypes_and_channels(gl, rng, dtype, channels, method):

@@ -231,6 +231,34 @@ def test_masks_under_bilinear_images_come_from_the_images_scan(gl, rng, monkeypa
     assert got.masks.dtype == dtype
 
 
+@pytest.mark.parametrize("border", ["edge", "constant"])
+@pytest.mark.parametrize("method", ["quads", "backward"])
+def test_parts_and_chunks_fill_the_batch_arrays(gl, rng, monkeypatch, method, border):
+    """8-bit images and masks read back straight into the batch's arrays: chunks of
+    consecutive images in place, the parts of one margin of a border mode (images apart
+    in the batch) copied there, an image of its own MLS (its segments) beside them; all
+    equal to the single warps."""
+    batch, src, dst = draw(rng, 9)
+    masks = rng.integers(0, 5, (9, *SHAPE), dtype=np.uint8)
+    grey = batch[..., 1].copy()
+    segments: list = [None] * 9
+    segments[4] = np.array([[[3.0, 3.0], [12.0, 9.0]]])
+    options = {"border": border, "interpolation": "linear", "grid": 2, "method": method}
+    labels = {"masks": masks, "src_segments": segments, "dst_segments": segments}
+    per_image = 4 * SHAPE[0] * SHAPE[1] * (12 if method == "quads" else 24)  # chunks of 1-3
+    calls = counting(monkeypatch, "backward" if method == "backward" else "warp")
+    for images in (batch, grey):
+        got = glmls.warp_batch(images, src, dst, max_batch_bytes=per_image, **labels, **options)
+        want = single_path(monkeypatch, images, src, dst, **labels, **options)
+        assert_array_equal(got.images, want.images)
+        assert_array_equal(got.masks, want.masks)
+        assert got.images.dtype == np.uint8 and got.images.shape == images.shape
+        assert got.masks.dtype == np.uint8 and got.masks.shape == masks.shape
+    assert len(calls) > 4 and max(calls) > 1
+    # image 4 by its own MLS in its chunk; the border's margins and backward leave it out
+    assert sum(calls) == (18 if (method, border) == ("quads", "constant") else 16)
+
+
 def test_chunks_keep_their_tables_within_the_texture_size(gl, rng, monkeypatch):
     """The fused path keeps a chunk's bytes, meshes and atlas in textures of the GL's size
     (a table: 8192 items a row): where the size is small, the chunks are smaller, the same

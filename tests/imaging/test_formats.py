@@ -156,6 +156,21 @@ def test_rgb_is_padded_to_rgba_with_opaque_alpha(rng, shape, layout):
     got = as_rgba8(img)
     assert got.shape == (*shape[:2], 4) and got.dtype == np.uint8
     assert_array_equal(got, want)
+    into = np.full((*shape[:2], 4), 7, np.uint8)  # a layer of a batch's stack
+    assert as_rgba8(img, into) is into
+    assert_array_equal(into, want)
+
+
+@pytest.mark.parametrize("channels", [1, 2, 3, 4])
+def test_any_channels_fill_a_given_rgba_array_as_gl_samples_them(rng, channels):
+    img = rng.integers(0, 256, (5, 3, channels), dtype=np.uint8)
+    want = np.zeros((5, 3, 4), np.uint8)
+    want[..., 3] = 255
+    want[..., :channels] = img
+    into = np.full((5, 3, 4), 7, np.uint8)
+    assert as_rgba8(img, into) is into
+    assert_array_equal(into, want)
+    assert_array_equal(as_rgba8(img), want)
 
 
 def test_an_image_of_python_ints_says_how_to_pass_it(gl):

@@ -59,3 +59,16 @@ def test_read_rgba8_names_bad_channels(framebuffer, rng):
     for bad in (0, 5):
         with pytest.raises(ValueError, match=f"channels must be 1, 2, 3 or 4, got {bad}"):
             read_rgba8(fb, (4, 4), bad)
+
+
+def test_read_rgba8_into_a_given_array(framebuffer, rng, monkeypatch):
+    monkeypatch.setattr(readback, "STRIP_BYTES", 64)  # several strips
+    fb, data = framebuffer(9, 13, rng)
+    for channels in (1, 2, 3, 4):
+        into = np.full((13, 9, channels), 7, np.uint8)
+        assert read_rgba8(fb, (9, 13), channels, into) is into
+        assert_array_equal(into, data[..., :channels])
+    wrong = [np.empty((13, 9, 2), np.uint8), np.empty((13, 18, 3), np.uint8)[:, ::2]]
+    for bad in wrong:
+        with pytest.raises(ValueError, match=r"out must be C-contiguous \(13, 9, 3\)"):
+            read_rgba8(fb, (9, 13), 3, bad)
