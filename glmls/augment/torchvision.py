@@ -321,11 +321,20 @@ class MLSTransform(v2.Transform):
             raise ValueError(f"batches of different sizes in one call: {found_shapes}")
         height, width, batch = sizes[0]
         count = 1 if batch is None else batch
-        owners: dict[int, Any] = {id(x): 0 if batch is None else "batch" for x in images}
+        # per input object, the owner of each of its places among the inputs in order: one
+        # object given for several samples ([boxes] * N) moves with each of them in turn
+        owners: dict[int, list[Any]] = {}
+
+        def own(x: object, owner: Any) -> None:
+            owners.setdefault(id(x), []).append(owner)
+
+        for x in images:
+            own(x, 0 if batch is None else "batch")
         for kind in _LABELS:
             labels = [x for x in flat_inputs if isinstance(x, kind)]
             if batch is None:  # one sample: every label of the call is its own
-                owners.update({id(x): 0 for x in labels})
+                for x in labels:
+                    own(x, 0)
                 continue
             # the batch's own labels (any number: a semantic and an instance mask), by their
             # shape; the others are the samples' own, one each in order
@@ -333,13 +342,12 @@ class MLSTransform(v2.Transform):
             rest = []
             for x in labels:
                 if ours and _batch_first(x, count):
-                    owners[id(x)] = "batch"
+                    own(x, "batch")
                 else:
                     rest.append(x)
-            if count == 1:
-                owners.update({id(x): 0 for x in rest})
-            elif len(rest) == count:
-                owners.update({id(x): k for k, x in enumerate(rest)})
+            if count == 1 or len(rest) == count:
+                for k, x in enumerate(rest):
+                    own(x, k)
             elif len(rest) == 1 and ours:
                 raise _batch_label_error(rest[0], count)
             elif rest:
@@ -362,10 +370,13 @@ class MLSTransform(v2.Transform):
         """Each sample's landmarks: all its KeyPoints but the NaN (missing) ones, in the
         order of the inputs."""
         marks: list[list[np.ndarray]] = [[] for _ in range(count)]
+        seen: dict[int, int] = {}  # the places of each object taken so far
         for x in flat_inputs:
             if isinstance(x, tv_tensors.KeyPoints):
                 points = to_numpy(x).astype(np.float64)
-                owner = owners[id(x)]
+                place = seen.get(id(x), 0)
+                seen[id(x)] = place + 1
+                owner = owners[id(x)][place]
                 if owner == "batch":
                     for k, p in enumerate(points.reshape(count, -1, 2)):
                         marks[k].append(p)
@@ -377,10 +388,13 @@ class MLSTransform(v2.Transform):
         # a NaN landmark is a missing one: no handle (it comes back NaN, as it came)
         return [m[~np.isnan(m).any(axis=1)] for m in joined]
 
-    def _samples(self, inpt: Any, params: dict[str, Any]) -> list[dict]:
-        owner = params["owners"][id(inpt)]
-        samples = params["samples"]
-        return samples if owner == "batch" else [samples[owner]]
+    @staticmethod
+    def _owner(inpt: Any, params: dict[str, Any]) -> int | str:
+        """The sample (or ``"batch"``) that this place of ``inpt`` belongs to: torchvision
+        transforms the inputs in the order :meth:`make_params` saw them, so an object given
+        at several places takes their owners in turn (the last one stays)."""
+        places = params["owners"][id(inpt)]
+        return places.pop(0) if len(places) > 1 else places[0]
 
     def transform(self, inpt: Any, params: dict[str, Any]) -> Any:
         """Deform one input with the draw of the sample it belongs to.
@@ -408,19 +422,37 @@ class MLSTransform(v2.Transform):
         >>> int(t.transform(mask, params).sum())
         64
         """
-        samples = self._samples(inpt, params)
+        owner = self._owner(inpt, params)
+        samples = params["samples"] if owner == "batch" else [params["samples"][owner]]
         if not samples:  # an empty batch (0, C, H, W): empty out, as torchvision's own give
-            return inpt.clone() if isinstance(inpt, torch.Tensor) else inpt
+            return self._nothing(inpt)
         if isinstance(inpt, tv_tensors.Mask):
             return tv_tensors.wrap(self._masks(inpt, samples), like=inpt)
         canvas = canvas_shape(samples[0])  # the output's size: output_shape, else the input's
         if isinstance(inpt, tv_tensors.KeyPoints):
             return tv_tensors.wrap(self._keypoints(inpt, samples), like=inpt, canvas_size=canvas)
         if isinstance(inpt, tv_tensors.BoundingBoxes):
-            return tv_tensors.wrap(self._boxes(inpt, samples[0]), like=inpt, canvas_size=canvas)
+            try:
+                boxes = self._boxes(inpt, samples[0])
+            except ValueError as error:  # a sample's own boxes: which sample's
+                several = len(params["samples"]) > 1
+                raise ValueError(f"sample {owner}'s {error}" if several else str(error)) from None
+            return tv_tensors.wrap(boxes, like=inpt, canvas_size=canvas)
         if isinstance(inpt, PIL.Image.Image):
             return self._pil(inpt, samples)
         return self._images(inpt, samples)
+
+    def _nothing(self, inpt: torch.Tensor) -> torch.Tensor:
+        """An input of an empty batch, empty on the output's canvas (``output_shape``, else
+        its own size): images and masks reshaped, keypoints and boxes with that
+        ``canvas_size``, of their type, dtype and device."""
+        size = tuple(F.get_size(inpt))
+        canvas = canvas_shape({"options": self.augment.warp_options, "shape": size})
+        if isinstance(inpt, (tv_tensors.KeyPoints, tv_tensors.BoundingBoxes)):
+            return tv_tensors.wrap(inpt.as_subclass(torch.Tensor).clone(), like=inpt,
+                                   canvas_size=canvas)  # fmt: skip
+        out = _empty(inpt, canvas)
+        return tv_tensors.wrap(out, like=inpt) if isinstance(inpt, tv_tensors.TVTensor) else out
 
     def _pil(self, image: PIL.Image.Image, samples: list[dict]) -> PIL.Image.Image:
         """A PIL image deformed, in its mode (a palette image's indices and a bilevel image's

@@ -438,11 +438,61 @@ def test_albumentations_a_nan_keypoint_stays_nan(gl, preset):
     np.testing.assert_array_equal(moved[[0, 2]], alone)
 
 
-def test_torchvision_an_empty_batch_gives_an_empty_batch(gl):
+@pytest.mark.parametrize("output_shape", [None, (30, 40)])
+def test_torchvision_an_empty_batch_gives_an_empty_batch(gl, output_shape):
+    """Empty on the output's canvas, as v2.Resize gives them: images and masks of that size,
+    keypoints with that canvas_size."""
+    options = None if output_shape is None else {"output_shape": output_shape}
+    canvas = output_shape or (16, 24)
     images = tv_tensors.Image(torch.zeros(0, 3, 16, 24, dtype=torch.uint8))
-    out, masks = MLSTransform()(images, tv_tensors.Mask(torch.zeros(0, 16, 24)))
-    assert isinstance(out, tv_tensors.Image) and out.shape == (0, 3, 16, 24)
-    assert isinstance(masks, tv_tensors.Mask) and masks.shape == (0, 16, 24)
+    points = tv_tensors.KeyPoints(torch.zeros(0, 2, 2), canvas_size=(16, 24))
+    masks = tv_tensors.Mask(torch.zeros(0, 16, 24))
+    out, masks, points = MLSTransform(warp_options=options)(images, masks, points)
+    assert isinstance(out, tv_tensors.Image) and out.shape == (0, 3, *canvas)
+    assert out.dtype == torch.uint8
+    assert isinstance(masks, tv_tensors.Mask) and masks.shape == (0, *canvas)
+    assert isinstance(points, tv_tensors.KeyPoints) and points.shape == (0, 2, 2)
+    assert tuple(points.canvas_size) == canvas
+    resized = v2.Resize(canvas)(images, masks, points)
+    assert [tuple(x.shape) for x in resized] == [(0, 3, *canvas), (0, *canvas), (0, 2, 2)]
+
+
+def test_torchvision_one_label_object_for_every_sample_moves_with_each(gl):
+    """``[boxes] * N`` (one object at N places, as torchvision's tree_flatten keeps them):
+    each place moves with its own sample, as N copies would; the landmarks preset takes one
+    KeyPoints object for every sample too."""
+    images = tv_tensors.Image(torch.zeros(3, 3, 32, 48, dtype=torch.uint8))
+    box = tv_tensors.BoundingBoxes(
+        torch.tensor([[10.0, 8.0, 40.0, 30.0]]), format="XYXY", canvas_size=(32, 48)
+    )
+    mask = tv_tensors.Mask(torch.zeros(32, 48, dtype=torch.uint8))
+    mask[8:30, 10:40] = 1
+    transform = MLSTransform(displacement=0.1)
+    torch.manual_seed(0)
+    shared = transform(images, *([box] * 3), *([mask] * 3))[1:]
+    torch.manual_seed(0)
+    copies = transform(images, *[box.clone() for _ in range(3)], *[mask.clone() for _ in range(3)])
+    for got, want in zip(shared, copies[1:], strict=True):
+        torch.testing.assert_close(got, want, rtol=0, atol=0)
+    assert not torch.equal(shared[0], shared[1])  # each sample's own draw
+    points = tv_tensors.KeyPoints(torch.tensor([[10.0, 10.0], [30.0, 20.0]]), canvas_size=(32, 48))
+    torch.manual_seed(1)
+    moved = MLSTransform("landmarks")(images, *([points] * 3))[1:]
+    torch.manual_seed(1)
+    want = MLSTransform("landmarks")(images, *[points.clone() for _ in range(3)])[1:]
+    for got, expected in zip(moved, want, strict=True):
+        torch.testing.assert_close(got, expected, rtol=0, atol=0)
+
+
+def test_torchvision_a_bad_box_names_its_sample(gl):
+    images = tv_tensors.Image(torch.zeros(3, 1, 16, 24))
+    good = torch.tensor([[1.0, 1.0, 5.0, 5.0], [2.0, 2.0, 6.0, 6.0]])
+    bad = torch.tensor([[1.0, 1.0, 5.0, 5.0], [6.0, 2.0, 2.0, 6.0]])
+    boxes = [
+        tv_tensors.BoundingBoxes(b, format="XYXY", canvas_size=(16, 24)) for b in (good, good, bad)
+    ]
+    with pytest.raises(ValueError, match=r"^sample 2's BoundingBoxes\[1\] \[6.0, 2.0, 2.0, 6.0\]"):
+        MLSTransform()(images, *boxes)
 
 
 def test_augment_polygons_of_tensors_come_back_as_tensors(gl):
