@@ -21,6 +21,7 @@ __all__ = [
     "check_stack",
     "orient",
     "quiet_tifffile",
+    "slice_series",
     "stack_orientation",
     "transposes",
 ]
@@ -117,14 +118,33 @@ def broken_chain(tiff: object) -> str | None:
         offset, index = following, index + 1
 
 
-def check_stack(path: object, tiff: object, series: object) -> None:
+def slice_series(tiff: object) -> list | None:
+    """The series of a stack written one slice at a time: tifffile makes each ``write`` of
+    a page a series of its own (``for s in volume: writer.write(s)``), where ImageJ reads
+    the file's pages as one stack. Where the file holds two or more series beyond
+    reduced-resolution ones (thumbnails), each of one page, all of one shape, dtype and
+    photometric interpretation, those series in order (their pages are the slices); else
+    None (one series; or several stacks or images, which :func:`check_stack` refuses)."""
+    series = [
+        one
+        for one in tiff.series
+        if not all(getattr(page, "is_reduced", False) for page in one.pages if page is not None)
+    ]
+    if len(series) < 2 or any(len(one.pages) != 1 for one in series):
+        return None
+    form = {(tuple(one.shape), one.dtype, int(one.keyframe.photometric)) for one in series}
+    return series if len(form) == 1 else None
+
+
+def check_stack(path: object, tiff: object, series: object, *, slices: bool = False) -> None:
     """``ValueError`` naming ``path`` and the page where a TIFF stack's ``series`` (tifffile's
     first, read as slices) is not the file's stack: a file without axes metadata (tifffile's
     ``generic`` series) with a page of another shape, dtype or kind outside the series (not a
     reduced-resolution page, a thumbnail), which tifffile leaves to a series of its own, so
     that the first would lack a slice; a file of several series (images or stacks, as
     tifffile writes each ``write``) beyond reduced-resolution ones, whose first alone would
-    be read; or pages whose numbers are not grey, RGB or palette
+    be read, unless they are one stack's slices (``slices``: :func:`slice_series`); or
+    pages whose numbers are not grey, RGB or palette
     indices (YCbCr other than JPEG's, CMYK, CIE Lab, LogLuv, ...), which reading them as
     stored would give as if they were."""
     if getattr(series, "kind", "") == "generic":
@@ -138,7 +158,7 @@ def check_stack(path: object, tiff: object, series: object) -> None:
                 f"{first.index} is {_page_kind(first)}: a stack's pages are slices of one "
                 "shape, dtype and kind"
             )
-    for other in tiff.series[1:]:
+    for other in [] if slices else tiff.series[1:]:
         pages = [page for page in other.pages if page is not None]
         if pages and not all(getattr(page, "is_reduced", False) for page in pages):
             # a second image or stack (tifffile writes each write() as a series of its own):
@@ -200,12 +220,12 @@ def transposes(code: int) -> bool:
     return transpose or turns % 2 == 1
 
 
-def stack_orientation(path: object, tiff: object, series: object) -> int:
-    """The orientation (TIFF tag 274, 1 where a page has none) of the pages of a stack's
-    ``series``; ``ValueError`` naming ``path`` and two pages where they differ (a stack
-    whose slices are stored turned differently is no volume)."""
+def stack_orientation(path: object, tiff: object, pages: list) -> int:
+    """The orientation (TIFF tag 274, 1 where a page has none) of a stack's ``pages`` (its
+    series' pages, or its slices'); ``ValueError`` naming ``path`` and two pages where they
+    differ (a stack whose slices are stored turned differently is no volume)."""
     codes: dict[int, int] = {}
-    for page in series.pages:
+    for page in pages:
         if page is None:
             continue
         full = page if hasattr(page, "tags") else tiff.pages.get(page.index, aspage=True)

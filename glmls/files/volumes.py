@@ -31,7 +31,8 @@ axes, as :meth:`glmls.MLS.warp` takes it) and the affine, where the file says th
   :func:`write_volume` writes for the dtypes ImageJ does not hold), else none; no affine;
 - ``.npy``: the array only.
 
-A TIFF is a volume when it holds more than one page (a stack); one page is an image
+A TIFF is a volume when it holds more than one page (a stack; a stack written one slice a
+write too, whose pages tifffile makes series of their own); one page is an image
 (:func:`glmls.imread`). The pages are slices where the file's axes (ImageJ's or OME's
 metadata, as tifffile reads them) have a Z axis, or where no metadata names them; channels
 are an axis C or S beside it (``ZCYX``, ``CZYX``, ``ZYXS``), or, for a stack of one channel
@@ -84,6 +85,7 @@ from .tiffs import (
     check_stack,
     orient,
     quiet_tifffile,
+    slice_series,
     stack_orientation,
     transposes,
 )
@@ -144,7 +146,8 @@ def volume_suffix(path: str | os.PathLike) -> str:
 
 def is_volume_file(path: str | os.PathLike) -> bool:
     """Whether ``path`` names a volume: a NIfTI or ``.npy`` file by its suffix, or a TIFF
-    whose first series (tifffile's: pages of one shape) has more than one page (an existing
+    whose first series (tifffile's: pages of one shape) has more than one page, or that
+    holds a stack written one slice a write (:func:`~.tiffs.slice_series`) (an existing
     file is opened to count them; a TIFF that does not exist yet is not a volume, nor a
     ``.tif`` file of another format by its first bytes, such as a PNG; an image
     with a thumbnail or a pyramid of smaller pages is an image). ``InputFileError`` for an
@@ -173,6 +176,9 @@ def is_volume_file(path: str | os.PathLike) -> bool:
             stacked = len(tiff.series[0].pages) if pages and tiff.series else pages
             series = tiff.series[0] if stacked > 1 else None
             axes, shape = (series.axes, series.shape) if series is not None else ("", ())
+            slices = slice_series(tiff) if stacked == 1 and broken is None else None
+            if slices is not None:  # a stack written one slice a write: unnamed pages
+                stacked, axes, shape = len(slices), "I", (len(slices),)
     except (tifffile.TiffFileError, *_CORRUPT) as error:
         raise InputFileError(f"{path}: not a readable TIFF file: {error}") from None
     if broken is not None:
@@ -541,16 +547,21 @@ def _read_tiff(path: Path) -> Volume:
                 f"{path}: a TIFF of one page is an image (glmls.imread), not a volume"
             )
         series = tiff.series[0]
+        slices = slice_series(tiff)  # written one slice a write: a series each
+        pages = series.pages if slices is None else [one.pages[0] for one in slices]
         try:
-            check_stack(path, tiff, series)
-            orientation = stack_orientation(path, tiff, series)
+            check_stack(path, tiff, series, slices=slices is not None)
+            orientation = stack_orientation(path, tiff, pages)
         except tifffile.TiffFileError as error:  # a page's tags (a ValueError too)
             raise InputFileError(
                 f"{path}: not a readable {path.suffix.lower()} volume: {error}"
             ) from None
         except ValueError as error:
             raise InputFileError(str(error)) from None
-        data, axes = series.asarray(), series.axes
+        if slices is None:
+            data, axes = series.asarray(), series.axes
+        else:  # unnamed pages (I), each slice as its series holds it (YX, YXS)
+            data, axes = np.stack([one.asarray() for one in slices]), "I" + series.axes
         spacing = stack_spacing(tiff)
         channel = data.ndim == 3 and one_channel(tiff)
     _check_axes(path, axes, data.shape)

@@ -12,6 +12,7 @@ from typing import ClassVar
 
 import numpy as np
 import pytest
+import tifffile
 from helpers import run_glmls, write_elastix_points
 from numpy.testing import assert_allclose, assert_array_equal
 
@@ -106,6 +107,22 @@ def test_spacing_option_wins_and_other_formats(files, stand_in, capsys):
     assert main(["warp", "stack.tif", "plain.npy", "--handles", "h3.json"]) == 0
     assert _last(stand_in.calls, "warp")[2]["spacing"] == (2.0, 2.0, 2.0)  # the stack's
     capsys.readouterr()
+
+
+def test_a_stack_written_one_slice_a_write_is_a_volume(files, stand_in, capsys):
+    """Each page a tifffile series of its own: warped as the volume with 3D handles, and
+    with 2D handles or by augment refused as a volume, not read as its first page."""
+    volume = np.arange(4 * 5 * 6, dtype=np.uint8).reshape(4, 5, 6)
+    with tifffile.TiffWriter(files / "pages.tif") as tiff:
+        for page in volume:
+            tiff.write(page)
+    assert main(["warp", "pages.tif", "out.npy", "--handles", "h3.json"]) == 0
+    assert "warp: volume 6 x 5 x 4 voxels (x, y, z)" in capsys.readouterr().err
+    assert_array_equal(np.load(files / "out.npy"), volume + 1)
+    assert main(["warp", "pages.tif", "out.png", "--handles", "h2.json"]) == 2
+    assert main(["augment", "pages.tif", "aug", "--n", "1"]) == 2
+    assert "pages.tif: a volume (a TIFF stack)" in capsys.readouterr().err
+    assert not (files / "out.png").exists() and not (files / "aug").exists()
 
 
 def test_one_channel_volume_keeps_its_axis_through_tiff(files, stand_in, capsys):

@@ -11,7 +11,7 @@ from PIL import Image, ImageOps
 
 from glmls.errors import InputFileError
 from glmls.files import read_volume
-from glmls.files.volumes import write_volume
+from glmls.files.volumes import is_volume_file, write_volume
 
 _SLICES = np.arange(4 * 6 * 7, dtype=np.uint16).reshape(4, 6, 7)
 
@@ -185,6 +185,35 @@ def test_a_tiff_of_several_stacks_is_refused_not_read_as_its_first(tmp_path, sec
         tiff.write(_SLICES, photometric="minisblack")
         tiff.write(second, photometric="minisblack")
     with pytest.raises(InputFileError, match=rf"two\.tif: a TIFF of {words}.*file of its own"):
+        read_volume(path)
+
+
+@pytest.mark.parametrize("rgb", [False, True])
+def test_a_stack_written_one_slice_a_write_reads_as_its_slices(tmp_path, rgb):
+    """``for s in volume: writer.write(s)``: tifffile makes each page a series of its own,
+    ImageJ reads the pages as one stack, and so does glmls (with a thumbnail after them
+    too); a volume to the command line, not its first page."""
+    volume = np.stack([_SLICES] * 3, axis=-1).astype(np.uint8) if rgb else _SLICES
+    path = tmp_path / "slices.tif"
+    with tifffile.TiffWriter(path) as tiff:
+        for page in volume:
+            tiff.write(page, photometric="rgb" if rgb else "minisblack")
+        tiff.write(volume[0, ::2, ::2], subfiletype=1)  # a thumbnail: not a slice
+    with tifffile.TiffFile(path) as tiff:
+        assert len(tiff.series) == 4 and tifffile.imread(path).shape == volume.shape[1:]
+    assert is_volume_file(path)
+    read = read_volume(path)
+    assert read.data.dtype == volume.dtype
+    np.testing.assert_array_equal(read.data, volume)
+
+
+def test_one_page_images_of_different_shapes_are_refused_as_several_images(tmp_path):
+    path = tmp_path / "mixed.tif"
+    with tifffile.TiffWriter(path) as tiff:
+        for page in (_SLICES[0], _SLICES[1], _SLICES[2, :5]):
+            tiff.write(page, photometric="minisblack")
+    assert is_volume_file(path) is False  # its first page is an image (glmls.imread warns)
+    with pytest.raises(InputFileError, match=r"a TIFF of 3 images or stacks .* file of its own"):
         read_volume(path)
 
 
