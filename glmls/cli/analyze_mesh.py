@@ -1,6 +1,7 @@
 """``glmls analyze`` on a mesh or point cloud (a PLY, OBJ or STL input) with 3D handles: the
 3D analysis at the mesh's vertices, on the GPU (:class:`glmls.MLS` of (N, 3) handles),
-written as ``report.json`` and the deformed mesh ``deformed.ply``.
+written as ``report.json`` (the statistics), ``vertices.npz`` (the values at every vertex
+and the folds of every face, :data:`VERTEX_ARRAYS`) and the deformed mesh ``deformed.ply``.
 
 - ``error_field``: the MLS error E_MLS (eq. 7) at every vertex, sum_i |p_i M_v + T_v - q_i|^2,
   and its statistics (eqs. 8, 9, the median and the trimmed mean);
@@ -37,7 +38,12 @@ from .options import UsageError, config_from_args
 from .progress import Ticker
 from .warp3d import check_world, read_3d_handles, refuse_image_options, refuse_sampling_options
 
-__all__ = ["is_mesh_input", "run_mesh"]
+__all__ = ["VERTEX_ARRAYS", "is_mesh_input", "run_mesh"]
+
+#: The arrays of ``vertices.npz``: per vertex (V,) the MLS error (eq. 7, float64), det J
+#: (float32, as :meth:`glmls.MLS.deform` gives it), the singular value ratio (float64; NaN
+#: where J is singular) and the fold flags (bool); per face (F,) the fold flags (bool).
+VERTEX_ARRAYS = ("error_field", "det_j", "ratio", "vertex_folds", "face_folds")
 
 
 def is_mesh_input(args: argparse.Namespace) -> bool:
@@ -66,6 +72,10 @@ def _deformation(src: np.ndarray, dst: np.ndarray, config: MLSConfig) -> MLS:
 def _distinct(points: np.ndarray) -> np.ndarray:
     _, first = np.unique(points, axis=0, return_index=True)
     return points[np.sort(first)]
+
+
+#: What a mesh's analysis writes into ``--out``.
+_OUTPUTS = ("report.json", "vertices.npz", "deformed.ply")
 
 
 def _ratios(jacobian: np.ndarray, det: np.ndarray) -> np.ndarray:
@@ -106,7 +116,7 @@ def run_mesh(args: argparse.Namespace) -> int:
     check_reference_3d(args.reference, reference, tetrahedra)
     if reference is None:
         say(args, "analyze: no --reference given: the source handles are the reference points")
-    keep_inputs(args, [Path(args.out) / "report.json", Path(args.out) / "deformed.ply"])
+    keep_inputs(args, [Path(args.out) / name for name in _OUTPUTS])
     ticker = Ticker("analyze", quiet=args.quiet)
     with _deformation(src, dst, config) as m, ticker as tick, reported_warnings("analyze"):
         tick.stage("deform")
@@ -124,6 +134,7 @@ def run_mesh(args: argparse.Namespace) -> int:
             found = {"skipped": f"the source handles as reference points: {error}"}
     vertex_folds, face_folds = int(deformed.vertex_folds.sum()), int(deformed.face_folds.sum())
     degenerate = _degenerate_faces(mesh.vertices, mesh.faces)
+    ratios = _ratios(deformed.jacobian, deformed.det_j)
     summary = {
         "mesh": {"vertices": len(mesh.vertices), "faces": len(mesh.faces)},
         "configuration": dataclasses.asdict(config)
@@ -137,7 +148,7 @@ def run_mesh(args: argparse.Namespace) -> int:
         "jacobians": {
             "vertices": len(mesh.vertices),
             "det": error_stats(deformed.det_j),
-            "ratio": error_stats(_ratios(deformed.jacobian, deformed.det_j)),
+            "ratio": error_stats(ratios),
             "vertex_folds": vertex_folds,
             "face_folds": face_folds,
             "degenerate_faces": degenerate,
@@ -145,11 +156,14 @@ def run_mesh(args: argparse.Namespace) -> int:
         "input": str(args.input),
     }
     out = Path(args.out)
-    paths = [out / "report.json", out / "deformed.ply"]
+    paths = [out / name for name in _OUTPUTS]
     with atomic_write(paths[0]) as tmp:
         tmp.write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
+    values = (field, deformed.det_j, ratios, deformed.vertex_folds, deformed.face_folds)
+    with atomic_write(paths[1]) as tmp, open(tmp, "wb") as file:
+        np.savez(file, **dict(zip(VERTEX_ARRAYS, values, strict=True)))
     write_mesh(
-        paths[1],
+        paths[2],
         deformed.vertices,
         faces=mesh.faces,
         colors=mesh.colors,

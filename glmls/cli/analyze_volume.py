@@ -92,6 +92,8 @@ def _tetrahedra(path: Path, value: object, count: int) -> np.ndarray:
                 f'"tetrahedra"[{index}]',
                 f"expected 4 point indices, integers in 0..{count - 1}, got {row!r}",
             )
+        if len(set(row)) != 4:  # no volume: the analysis would refuse it without the file
+            raise fail(path, f'"tetrahedra"[{index}]', f"{row!r} repeats a vertex")
     if not rows:
         raise fail(path, '"tetrahedra"', "no tetrahedron")
     return np.array(rows, dtype=np.int64)

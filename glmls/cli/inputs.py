@@ -324,6 +324,12 @@ def read_image_handles(path, *, dst=None, image: object, many: bool = False) -> 
     a file of 3D handles."""
     if handle_dimension(path, dst=dst) != 2:
         which = "names images: they take" if many else "is an image: it takes"
+        name = str(image)
+        if Path(name).is_dir() or (glob.has_magic(name) and not Path(name).exists()):
+            which = (  # a folder or a glob of volumes: they are not read as such
+                "names images: a folder or a glob takes 2D images (a volume or a mesh is "
+                "named on its own), which take"
+            )
         hint = ""
         if str(image).lower().endswith((".tif", ".tiff")) and Path(str(image)).is_file():
             # a volume of one slice, saved as a stack, is a TIFF of one page

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import glob
 import os
 from pathlib import Path
 
@@ -135,6 +136,8 @@ def add_3d_options(parser: argparse.ArgumentParser) -> None:
 
 def input_kind(pattern: str) -> str:
     """``"volume"``, ``"mesh"`` or ``"image"`` (images, folders and globs) for ``IN``."""
+    if glob.has_magic(str(pattern)) and not Path(pattern).exists():
+        return "image"  # a glob, even of volumes' names: images one by one (or refused so)
     suffix = volume_suffix(pattern)
     if suffix in MESH_SUFFIXES:
         return "mesh"

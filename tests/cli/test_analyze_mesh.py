@@ -12,6 +12,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 import glmls
 from glmls.analysis import ReferenceDeformation, error_stats, tetrahedron_errors
 from glmls.analysis.volume_field import fit_residuals
+from glmls.cli.analyze_mesh import VERTEX_ARRAYS
 from glmls.cli.main import main
 
 SRC = [[12, 32, 32], [52, 32, 32], [32, 12, 32], [32, 52, 32], [32, 32, 12], [32, 32, 52]]
@@ -33,6 +34,8 @@ def inputs(tmp_path, monkeypatch):
     (tmp_path / "own_tets.json").write_text(json.dumps(own))
     bad = {"points": REFERENCE, "tetrahedra": [[0, 2, 4, 6]]}
     (tmp_path / "bad_tets.json").write_text(json.dumps(bad))
+    flat = {"points": REFERENCE, "tetrahedra": [[0, 1, 2, 3], [0, 1, 2, 2]]}
+    (tmp_path / "flat_tets.json").write_text(json.dumps(flat))
     return tmp_path
 
 
@@ -40,7 +43,7 @@ def test_analyze_a_mesh_reports_at_its_vertices(inputs, capsys):
     argv = ["analyze", "sphere.obj", "--handles", "h3.json", "--reference", "r3.json"]
     assert main([*argv, "--transform", "similarity", "--out", "rep"]) == 0
     out, err = capsys.readouterr()
-    assert out.split() == ["rep/report.json", "rep/deformed.ply"]
+    assert out.split() == ["rep/report.json", "rep/vertices.npz", "rep/deformed.ply"]
     assert "E_MLS at 162 vertices median" in err and "folded: 0 vertices, 0 faces" in err
     summary = json.loads((inputs / "rep" / "report.json").read_text())
     assert summary["mesh"] == {"vertices": 162, "faces": 320}
@@ -62,6 +65,18 @@ def test_analyze_a_mesh_reports_at_its_vertices(inputs, capsys):
     deformed = glmls.read_mesh(inputs / "rep" / "deformed.ply")
     assert_array_equal(deformed.faces, sphere.faces)
     assert_allclose(deformed.vertices, m(sphere.vertices), atol=1e-3)
+    # the values at every vertex (and the folds of every face), which the report sums up
+    with np.load(inputs / "rep" / "vertices.npz") as values:
+        assert sorted(values.files) == sorted(VERTEX_ARRAYS)
+        errors = fit_residuals(m.src, m.dst, matrix, translation)
+        assert_allclose(values["error_field"], errors, rtol=1e-3, atol=1e-6 * errors.max())
+        assert error_stats(values["error_field"])["median"] == summary["error_field"]["median"]
+        step = 1e-4 * np.eye(3)  # J of the float64 reference by central differences
+        columns = [(m(sphere.vertices + e) - m(sphere.vertices - e)) / 2e-4 for e in step]
+        assert_allclose(values["det_j"], np.linalg.det(np.stack(columns, -1)), rtol=1e-3)
+        assert values["ratio"].shape == (162,) and (values["ratio"] >= 1.0).all()
+        assert values["vertex_folds"].dtype == bool and not values["vertex_folds"].any()
+        assert values["face_folds"].shape == (320,) and not values["face_folds"].any()
 
 
 def test_faces_of_zero_area_in_the_input_are_counted_apart_from_the_map_folds(inputs, capsys):
@@ -88,6 +103,9 @@ def test_analyze_a_point_cloud_and_a_folding_map(inputs, capsys):
     assert main([*argv, "--out", "fold"]) == 0
     jacobians = json.loads((inputs / "fold" / "report.json").read_text())["jacobians"]
     assert jacobians["vertex_folds"] == 162 and jacobians["face_folds"] == 320
+    with np.load(inputs / "fold" / "vertices.npz") as values:
+        assert values["vertex_folds"].all() and values["face_folds"].all()
+        assert (values["det_j"] < 0).all()
     assert main(["analyze", "cloud.ply", "--handles", "h3.json", "--out", "cloud"]) == 0
     summary = json.loads((inputs / "cloud" / "report.json").read_text())
     assert summary["mesh"] == {"vertices": 162, "faces": 0}
@@ -175,6 +193,10 @@ def test_a_map_that_flattens_the_mesh_folds_every_vertex(inputs, capsys):
         (
             ["sphere.obj", "--handles", "h3.json", "--reference", "bad_tets.json"],
             'bad_tets.json: "tetrahedra"[0]: expected 4 point indices, integers in 0..5',
+        ),
+        (
+            ["sphere.obj", "--handles", "h3.json", "--reference", "flat_tets.json"],
+            'flat_tets.json: "tetrahedra"[1]: [0, 1, 2, 2] repeats a vertex',
         ),
     ],
 )

@@ -125,6 +125,25 @@ def test_a_stack_written_one_slice_a_write_is_a_volume(files, stand_in, capsys):
     assert not (files / "out.png").exists() and not (files / "aug").exists()
 
 
+@pytest.mark.parametrize("pattern", ["vols", "vols/*.npy", "vols/*.nii.gz"])
+def test_a_folder_or_glob_of_volumes_is_named_as_images_with_its_reason(
+    files, stand_in, capsys, pattern
+):
+    """Volumes are warped one a call: a folder or a glob takes 2D images, and 3D handles
+    for one say so (not "no such file" for a glob that matches, nor images alone)."""
+    (files / "vols").mkdir()
+    for name in ("a.npy", "b.npy"):
+        np.save(files / "vols" / name, np.zeros((4, 5, 6), np.uint8))
+    assert main(["warp", pattern, "out/", "--handles", "h3.json"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    assert (
+        f"h3.json: 3D handles (x, y, z), but {pattern} names images: a folder or a glob "
+        "takes 2D images (a volume or a mesh is named on its own)" in err
+    )
+    assert not (files / "out").exists() and not stand_in.calls
+
+
 def test_one_channel_volume_keeps_its_axis_through_tiff(files, stand_in, capsys):
     volume = np.arange(4 * 5 * 6, dtype=np.uint16).reshape(4, 5, 6, 1)
     np.save(files / "one.npy", volume)
