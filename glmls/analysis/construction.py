@@ -33,6 +33,7 @@ __all__ = [
     "STEP",
     "ConstructionErrors",
     "check_radius",
+    "check_window_memory",
     "construction_errors",
     "local_maps",
 ]
@@ -243,6 +244,17 @@ def check_radius(radius: object, name: str = "radius") -> int:
     return check_integer(name, radius, 0, what="an integer >= 0 (output pixels)")
 
 
+def check_window_memory(radius: int, points: int, channels: int) -> None:
+    """``ValueError`` (:func:`~glmls.core.config.check_result_bytes`'s) where the windows of
+    ``radius`` around ``points`` points of an image of ``channels`` channels would need more
+    than this machine's memory: what :func:`construction_errors` checks, for a caller that
+    can check before other work."""
+    check_result_bytes(
+        f"construction_errors' windows of radius {radius} at {points} points",
+        points * (2 * radius + 1) ** 2 * (96 + 16 * channels),
+    )
+
+
 def _options(radius: object, alignment: object, border: object, snap: object) -> None:
     check_radius(radius)
     check_choice("alignment", alignment, ALIGNMENTS)
@@ -432,10 +444,7 @@ def construction_errors(
     n = len(r)
     channels = source.shape[2] if source.ndim == 3 else 1
     # each window pixel's indices, preimage and samples (float64 and int64 pairs), per point
-    check_result_bytes(
-        f"construction_errors' windows of radius {k} at {n} points",
-        n * (2 * k + 1) ** 2 * (96 + 16 * channels),
-    )
+    check_window_memory(k, n, channels)
     if n:
         # f as m.warp(image) evaluates it: a radius weight's default radius is the image's
         with image_deformation(m, source.shape[:2]) as warp:

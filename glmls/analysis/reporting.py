@@ -15,6 +15,7 @@ from PIL import Image
 from ..core.config import check_choice
 from ..core.mesh import check_grid
 from ..files.atomic import atomic_write
+from ..files.json_out import strict_json
 from ..forking import renderer
 from ..imaging.frame import Frame
 from ..imaging.options import WarpOptions, default
@@ -73,7 +74,7 @@ class SavedReport:
     images: dict[str, np.ndarray]
 
     def to_json(self, **options: object) -> str:
-        """The summary as JSON text.
+        """The summary as standard JSON text (a value that is not finite as ``null``).
 
         Parameters
         ----------
@@ -99,7 +100,8 @@ class SavedReport:
         >>> found.to_json(indent=None).startswith('{"image": {"height": 32, "width": 32}')
         True
         """
-        return json.dumps(self.summary, **({"indent": 2} | options))  # type: ignore[arg-type]
+        keywords = {"indent": 2, "allow_nan": False} | options
+        return json.dumps(strict_json(self.summary), **keywords)  # type: ignore[arg-type]
 
     def save(self, folder: str | Path) -> list[Path]:
         """Write ``report.json`` and one PNG per picture into a folder.

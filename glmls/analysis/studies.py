@@ -38,6 +38,7 @@ from ..core.config import MLSConfig, check_integer, check_seed, check_sequence, 
 from ..core.handles import check_reference_points
 from ..data.manifest import StudyItem
 from ..files.atomic import atomic_write
+from ..files.json_out import write_json
 from .colormaps import VIRIDIS
 from .jobs import check_jobs, run_jobs
 from .tuning import MAX_TRIALS, TuneResult, label, parse_config, search_space, tune
@@ -674,8 +675,7 @@ def _csv(rows: list[dict], names: list[str]) -> str:
 
 
 def _write_json(path: Path, document: dict) -> None:
-    with atomic_write(path) as tmp:
-        tmp.write_text(json.dumps(document, indent=2) + "\n", encoding="utf-8")
+    write_json(path, document)
 
 
 def render_heatmap(rows: list[dict], names: list[str], *, title: str = "") -> np.ndarray:

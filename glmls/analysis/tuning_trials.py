@@ -156,8 +156,9 @@ def _mesh(shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
     """A mesh over the image: points (pixel centres, step ~1/64 of the longer side) and two
     triangles per cell."""
     step = max(1.0, max(shape) / _MESH_CELLS)
-    xs = np.arange(0.0, shape[1] - 1 + 1e-9, step)
-    ys = np.arange(0.0, shape[0] - 1 + 1e-9, step)
+    # at least the two edges of a side of two pixels or more: a strip thinner than the step
+    # (200 x 3) still has cells to measure
+    xs, ys = (_samples(side, step) for side in (shape[1], shape[0]))
     grid = np.stack(np.meshgrid(xs, ys), -1)
     rows, cols = grid.shape[:2]
     index = np.arange(rows * cols).reshape(rows, cols)
@@ -165,6 +166,13 @@ def _mesh(shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
     c, d = index[1:, 1:].ravel(), index[1:, :-1].ravel()
     triangles = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
     return grid.reshape(-1, 2), triangles
+
+
+def _samples(side: int, step: float) -> np.ndarray:
+    """Pixel centres along a side, ``step`` apart, the last centre among them where the step
+    would leave a side of two pixels or more with one."""
+    samples = np.arange(0.0, side - 1 + 1e-9, step)
+    return np.array([0.0, side - 1.0]) if len(samples) < 2 and side > 1 else samples
 
 
 def measure_trial(
@@ -201,7 +209,7 @@ def measure_trial(
     return {
         "angle": _mean(tri.angle),
         "smoothness": _worst_fan(fan_angle),
-        "mesh_angle": float(np.nanpercentile(mesh_angle, 99)),
+        "mesh_angle": _percentile(mesh_angle, 99),
         "predictive": float(np.hypot(*(predicted - truth).T).mean()),
         "mls": float(error_stats(m.error_field(shape, grid=grid))["mean"]),
         "distance": _mean(tri.distance),
@@ -221,6 +229,16 @@ def _worst_fan(fan_angle: np.ndarray) -> float:
     sums = np.where(defined, fan_angle, 0.0).sum(axis=1)
     means = np.where(counts > 0, sums / np.maximum(counts, 1), math.inf)
     return float(means.max())
+
+
+def _percentile(values: np.ndarray, q: float) -> float:
+    """The ``q``-th percentile of the defined values; no value (an image of one pixel
+    across: no triangle) 0, as :func:`_worst_fan` gives no fan; every one undefined (f
+    collapsed them) infinite, the worst."""
+    if values.size == 0:
+        return 0.0
+    finite = values[np.isfinite(values)]
+    return float(np.percentile(finite, q)) if len(finite) else math.inf
 
 
 def _mean(values: np.ndarray) -> float:

@@ -22,6 +22,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -30,6 +31,8 @@ from ..files.atomic import atomic_write
 
 __all__ = [
     "BUTTONS",
+    "KEY_NAMES",
+    "MAX_WAIT_FRAMES",
     "MODIFIERS",
     "Event",
     "Key",
@@ -46,6 +49,23 @@ __all__ = [
 
 BUTTONS = ("left", "right", "middle")
 MODIFIERS = ("shift", "ctrl", "alt")
+#: The keys a window feeds by name (the others: the character typed, or ``Ctrl+`` and
+#: ``Ctrl+Shift+`` with a letter A-Z).
+KEY_NAMES = (
+    "F1",
+    "Escape",
+    "Backspace",
+    "Left",
+    "Right",
+    "Up",
+    "Down",
+    "PageUp",
+    "PageDown",
+    "Tab",
+)
+#: The most frames one ``wait`` renders (about 4.6 hours at 60 frames a second).
+MAX_WAIT_FRAMES = 1_000_000
+_CTRL_KEY = re.compile(r"Ctrl\+(Shift\+)?[A-Z]")
 
 
 @dataclass(frozen=True)
@@ -229,14 +249,25 @@ def _event(path: Path, where: str, entry: object):
         raise InputFileError(f"{path}: {where}: unknown field(s) {', '.join(unknown)} for {kind}")
     if kind == "key":
         key = entry.get("key")
-        if not isinstance(key, str) or not key:
-            raise InputFileError(f'{path}: {where}: "key" must be a non-empty string, got {key!r}')
+        if not isinstance(key, str) or not (
+            len(key) == 1 or key in KEY_NAMES or _CTRL_KEY.fullmatch(key)
+        ):
+            raise InputFileError(
+                f'{path}: {where}: "key" must be a character typed, one of '
+                f'{", ".join(KEY_NAMES)}, or "Ctrl+" or "Ctrl+Shift+" and a letter A-Z, '
+                f"got {key!r}"
+            )
         return Key(key)
     if kind == "wait":
         frames = entry.get("frames")
-        if isinstance(frames, bool) or not isinstance(frames, int) or frames < 0:
+        if (
+            isinstance(frames, bool)
+            or not isinstance(frames, int)
+            or not 0 <= frames <= MAX_WAIT_FRAMES
+        ):
             raise InputFileError(
-                f'{path}: {where}: "frames" must be an integer >= 0, got {frames!r}'
+                f'{path}: {where}: "frames" must be an integer in 0..{MAX_WAIT_FRAMES}, '
+                f"got {frames!r}"
             )
         return Wait(frames)
     x, y = _number(path, where, entry, "x"), _number(path, where, entry, "y")
@@ -310,6 +341,10 @@ def read_events(path: str | os.PathLike) -> list:
         data = json.loads(text)
     except json.JSONDecodeError as error:
         raise InputFileError(f"{path}: line {error.lineno}: invalid JSON: {error.msg}") from None
+    except ValueError as error:  # an integer of more than 4,300 digits
+        raise InputFileError(f"{path}: invalid JSON: {error}") from None
+    except RecursionError:
+        raise InputFileError(f"{path}: JSON nested too deeply to be events") from None
     if isinstance(data, dict):
         if "events" not in data:
             raise InputFileError(f'{path}: top level: missing the key "events"')

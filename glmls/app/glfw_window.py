@@ -9,7 +9,7 @@ from collections.abc import Callable
 import moderngl
 
 from ..gl.llvm import load_llvm_users_first
-from .events import Event, Key, Move, Press, Release, Scroll
+from .events import KEY_NAMES, Event, Key, Move, Press, Release, Scroll
 
 __all__ = ["NO_DISPLAY_HINT", "GlfwWindow", "NoDisplayError"]
 
@@ -29,6 +29,8 @@ class NoDisplayError(RuntimeError):
 #: X server started by ``xvfb-run`` resets when its last client leaves, and a window opened
 #: meanwhile finds no display).
 _TERMINATE_AT_EXIT: list[bool] = []
+#: glfw's constant of a key name where it is not ``KEY_<NAME>`` of the name in upper case.
+_GLFW_NAMES = {"PageUp": "PAGE_UP", "PageDown": "PAGE_DOWN"}
 
 
 def _text(value: object) -> str:
@@ -118,17 +120,8 @@ class GlfwWindow:
             glfw.MOUSE_BUTTON_RIGHT: "right",
             glfw.MOUSE_BUTTON_MIDDLE: "middle",
         }
-        special = {
-            glfw.KEY_F1: "F1",
-            glfw.KEY_ESCAPE: "Escape",
-            glfw.KEY_BACKSPACE: "Backspace",
-            glfw.KEY_LEFT: "Left",
-            glfw.KEY_RIGHT: "Right",
-            glfw.KEY_UP: "Up",
-            glfw.KEY_DOWN: "Down",
-            glfw.KEY_PAGE_UP: "PageUp",
-            glfw.KEY_PAGE_DOWN: "PageDown",
-            glfw.KEY_TAB: "Tab",
+        special = {  # glfw's key -> its name (events.KEY_NAMES, which a replay takes)
+            getattr(glfw, f"KEY_{_GLFW_NAMES.get(name, name.upper())}"): name for name in KEY_NAMES
         }
         modifiers = ((glfw.MOD_SHIFT, "shift"), (glfw.MOD_CONTROL, "ctrl"), (glfw.MOD_ALT, "alt"))
 

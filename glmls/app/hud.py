@@ -142,7 +142,10 @@ def readout_quads(
     """(text size, glyph quads on a dark panel, the panel's width) of the readout at the top
     left: at ``atlas``'s size, or smaller (down to :data:`HELP_MIN_SHARE` of it, 8 pixels at
     least) where its lines would run past the ``height`` of the framebuffer, so that the
-    last ones (what a key did) stay in view."""
+    last ones (what a key did) stay in view. A line longer than :data:`PANEL_CHARS` (a long
+    file name, a huge radius) is wrapped: the panel keeps the width the layout gave it,
+    beside the image, not over it."""
+    lines = [part for line in lines for part in _fitted(line)]
     smallest = min(atlas.size, max(8, round(HELP_MIN_SHARE * atlas.size)))
     for size in range(atlas.size, smallest - 1, -1):
         sized = glyph_atlas(size) if size != atlas.size else atlas
@@ -156,6 +159,11 @@ def readout_quads(
         sized.quads("\n".join(lines), pad, pad, (0.95, 0.95, 0.95, 1.0)),
     ]
     return sized.size, parts, width
+
+
+def _fitted(line: str) -> list[str]:
+    """``line`` as it is where it fits the panel, else wrapped to it."""
+    return [line] if len(line) <= PANEL_CHARS else wrap(line, PANEL_CHARS)
 
 
 def text_quads(

@@ -11,6 +11,7 @@ them; the operating-system window, the layout and the text are the 2D window's.
 from __future__ import annotations
 
 import time
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
@@ -68,6 +69,9 @@ class VolumeApp(WindowLoop):
         (width, height) of the window.
     record : str or os.PathLike, optional
         Write every event fed there as a replay file when the window closes.
+    read_files : mapping of str or os.PathLike to str, optional
+        Files the window's inputs came from, each with what it is: a save (``s``, ``j``,
+        ``S``) that would replace one of them is refused, and the window says so.
 
     Attributes
     ----------
@@ -119,6 +123,7 @@ class VolumeApp(WindowLoop):
         targets_path: str | Path | None = None,
         window_size: tuple[int, int] | None = None,
         record: str | Path | None = None,
+        read_files: Mapping[str | Path, str] | None = None,
     ) -> None:
         given = volume if isinstance(volume, Volume) else Volume(np.asarray(volume))
         if save_as not in VOLUME_SUFFIXES:
@@ -143,6 +148,7 @@ class VolumeApp(WindowLoop):
             targets_path=targets_path,
             window_size=window_size,
             record=record,
+            read_files=read_files,
         )
 
     def _open(self, *, vsync: bool) -> None:
@@ -163,7 +169,7 @@ class VolumeApp(WindowLoop):
     # -- events and commands ----------------------------------------------------------------
 
     def _save_warped(self) -> Path:
-        path = self._path(f"warped{self.save_as}")
+        path = self._writable(self._path(f"warped{self.save_as}"))
         mls = self.session.mls if self.window is not None else None
         if mls is None:
             raise ValueError("no valid deformation")

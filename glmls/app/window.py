@@ -11,6 +11,7 @@ overlays need on the CPU (their statistics) and screenshots.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
@@ -64,6 +65,10 @@ class App(WindowLoop):
     record : str or os.PathLike, optional
         Write every event fed (mouse, keys, replayed ones) there as a replay file
         (:func:`write_events`) when the window closes.
+    read_files : mapping of str or os.PathLike to str, optional
+        Files the window's inputs came from, each with what it is ("the --reference
+        file"): a save (``s``, ``j``, ``S``) that would replace one of them is refused, and
+        the window says so.
 
     Attributes
     ----------
@@ -118,6 +123,7 @@ class App(WindowLoop):
         targets_path: str | Path | None = None,
         window_size: tuple[int, int] | None = None,
         record: str | Path | None = None,
+        read_files: Mapping[str | Path, str] | None = None,
     ) -> None:
         self.image = np.asarray(image)
         self.display = display_image(self.image)
@@ -130,6 +136,7 @@ class App(WindowLoop):
             targets_path=targets_path,
             window_size=window_size,
             record=record,
+            read_files=read_files,
         )
         self.controller = Controller(
             src,
@@ -174,7 +181,7 @@ class App(WindowLoop):
             self._relayout()
 
     def _save_warped(self) -> Path:
-        path = self._path(f"warped{warped_suffix(self.image)}")
+        path = self._writable(self._path(f"warped{warped_suffix(self.image)}"))
         mls = self.session.mls if self.window is not None else None
         canvas = self.session.canvas
         save_image(path, mls, self.image, self.display, self.controller.settings, canvas)

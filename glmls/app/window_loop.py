@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import time
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -52,8 +52,10 @@ class WindowLoop:
         targets_path: str | Path | None = None,
         window_size: tuple[int, int] | None,
         record: str | Path | None,
+        read_files: Mapping[str | Path, str] | None = None,
     ) -> None:
-        """The state of a window not yet opened, laid out for a canvas of ``shape``."""
+        """The state of a window not yet opened, laid out for a canvas of ``shape``
+        (``read_files``: the files its inputs came from, which no save replaces)."""
         self.name = name
         self.out_dir = Path(out_dir)
         self.handles_path = Path(handles_path) if handles_path is not None else None
@@ -71,6 +73,7 @@ class WindowLoop:
         self._messages: list[tuple[float, str]] = []
         self._last_view: tuple = ()
         self._want_screenshot: Path | None = None
+        self._read_files = {Path(path): what for path, what in (read_files or {}).items()}
         self._quit = False
         self.window: GlfwWindow | None = None
 
@@ -185,12 +188,12 @@ class WindowLoop:
                 kept = " (the last valid f)" if self.window and self.session.error else ""
                 self.say(f"saved {path}{kept}")
             elif command == "save_handles":
-                path = self._path("handles.json")
+                path = self._writable(self._path("handles.json"))
                 self._save_handles(path)
                 self.handles_path = self.handles_path or path
                 self.say(f"saved {path}")
             elif command == "save_screenshot":
-                self._want_screenshot = self._path("screenshot.png")
+                self._want_screenshot = self._writable(self._path("screenshot.png"))
             elif command == "load_handles":
                 path = self.handles_path or self._path("handles.json")
                 targets = self.targets_path if self.handles_path is not None else None
@@ -198,8 +201,17 @@ class WindowLoop:
         except (OSError, ValueError) as error:
             self.say(f"{command.replace('_', ' ')} failed: {error}")
 
+    def _writable(self, path: Path) -> Path:
+        """``path``, where saving there replaces none of the files read; else ``ValueError``
+        (said in the window as the save's failure)."""
+        for read, what in self._read_files.items():
+            if _same_file(path, read):
+                raise ValueError(f"{path} is {what}, which saving would replace")
+        return path
+
     def _save_warped(self) -> Path:
-        """Save the deformed image or volume; its path."""
+        """Save the deformed image or volume (at a path :meth:`_writable` let through); its
+        path."""
         raise NotImplementedError
 
     def _save_handles(self, path: Path) -> None:
@@ -369,3 +381,12 @@ class WindowLoop:
             if quiet:
                 raise
             self.say(f"screenshot failed: {error}")
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    """Whether ``a`` and ``b`` name one file (the same file where both exist, else the same
+    absolute path)."""
+    try:
+        return a.samefile(b)
+    except OSError:
+        return a.resolve() == b.resolve()

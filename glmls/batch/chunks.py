@@ -343,12 +343,17 @@ class _Outputs:
     def commit(self, chunk: list[int], done: list[ImageLabels]) -> None:
         """The chunk's results ``done`` in the group's arrays: those read elsewhere copied."""
         places = np.array([self.place[i] for i in chunk])
-        for array, values in ((self.out, [r.image for r in done]), (self.labels, done)):
-            if array is not None and values is done:
-                values = [r.mask for r in done]
-            if array is not None and values[0].base is not array:
-                array[places] = values
+        _put(self.out, places, [r.image for r in done])
+        if self.labels is not None:
+            _put(self.labels, places, [r.mask for r in done])
         self.written[places] = True
+
+
+def _put(array: np.ndarray, places: np.ndarray, values: list[np.ndarray]) -> None:
+    """``values`` at ``places`` of ``array``, unless they are its rows already (views read
+    into it: a chunk's read-back fills them all or none)."""
+    if values[0].base is not array:
+        array[places] = values
 
 
 def _slab(array: np.ndarray | None, items: list[np.ndarray] | None, chunk: list[int]):

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +28,7 @@ from ..analysis.volume_field import fit_residuals
 from ..core.config import MLSConfig
 from ..core.handles3 import as_points3
 from ..files.atomic import atomic_write
+from ..files.json_out import write_json
 from ..files.meshes import MESH_SUFFIXES, read_mesh, write_mesh
 from ..files.volumes import volume_suffix
 from ..mls import MLS
@@ -157,8 +157,7 @@ def run_mesh(args: argparse.Namespace) -> int:
     }
     out = Path(args.out)
     paths = [out / name for name in _OUTPUTS]
-    with atomic_write(paths[0]) as tmp:
-        tmp.write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
+    write_json(paths[0], summary)
     values = (field, deformed.det_j, ratios, deformed.vertex_folds, deformed.face_folds)
     with atomic_write(paths[1]) as tmp, open(tmp, "wb") as file:
         np.savez(file, **dict(zip(VERTEX_ARRAYS, values, strict=True)))

@@ -26,13 +26,21 @@ def replay_events(args: argparse.Namespace) -> list | None:
 
 def window_options(args: argparse.Namespace) -> dict:
     """The keywords of either window that the arguments give: where it saves, the handles
-    file it loads, its size and the file it records the events to."""
+    file it loads, its size, the file it records the events to, and the files it read, which
+    its saves do not replace (the --handles file aside: ``j`` saves the handles edited)."""
+    read = (
+        (getattr(args, "image", None), "the input"),
+        (args.targets, "the --targets file"),
+        (getattr(args, "reference", None), "the --reference file"),
+        (args.replay, "the --replay file"),
+    )
     return {
         "out_dir": args.out,
         "handles_path": args.handles,
         "targets_path": args.targets,
         "window_size": args.window_size,
         "record": args.record,
+        "read_files": {path: what for path, what in read if path is not None},
     }
 
 

@@ -172,7 +172,16 @@ def refuse_overwriting(outputs: Sequence[Path], inputs: dict[Path, str]) -> None
     file itself (a link or another spelling of its name is the same file); or that exists
     and is no file (a folder), which the output could not replace, or whose folder exists
     and is no folder (a file), in which it could not be made. Checked before any work,
-    so that a run does not find it only when it writes."""
+    so that a run does not find it only when it writes; and for two outputs of one file
+    (``demo --record x --screenshot x``), the second of which would replace the first."""
+    named: dict[object, Path] = {}
+    for output in outputs:
+        first = named.setdefault(_file_identity(output) or output.resolve(), output)
+        if first is not output:
+            raise UsageError(
+                f"{output}: two outputs of one file ({first} and {output}): the second would "
+                "replace the first; give each its own name"
+            )
     for output in outputs:
         if output.exists() and not output.is_file():
             raise UsageError(f"{output}: an output's name, but it exists and is not a file")

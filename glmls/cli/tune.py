@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import csv
 import io
-import json
 from pathlib import Path
 
 from ..analysis.jobs import DistributedUnavailableError
@@ -15,6 +14,7 @@ from ..analysis.tuning import MAX_TRIALS, MEASURES, label, search_space, tune
 from ..analysis.tuning_trials import MAGNITUDES
 from ..core.config import MLSConfig
 from ..files.atomic import atomic_write
+from ..files.json_out import write_json
 from .inputs import (
     add_example_inputs,
     check_picture,
@@ -37,6 +37,7 @@ from .options import (
 from .progress import Progress
 from .tune_construction import (
     OUTPUTS,
+    check_construction_memory,
     check_construction_options,
     configure_construction,
     remove_former_construction,
@@ -174,6 +175,7 @@ def run(args: argparse.Namespace) -> int:
     warn_about_reference(args, reference, image.shape)
     check_reference(args, reference, "the example's reference points")
     check_picture(image, name)  # the winner's report pictures it, after the tuning
+    check_construction_memory(args, image, reference, handles)  # ranked after the tuning
     written = ["ranking.json", "ranking.csv"]
     written += list(OUTPUTS) if args.construction else []
     outputs = [Path(args.out) / name for name in written]
@@ -221,8 +223,7 @@ def run(args: argparse.Namespace) -> int:
         "ranking": result.rows,
         "skipped": result.skipped,
     }
-    with atomic_write(out / "ranking.json") as tmp:
-        tmp.write_text(json.dumps(document, indent=2) + "\n", encoding="utf-8")
+    write_json(out / "ranking.json", document)
     with atomic_write(out / "ranking.csv") as tmp:
         tmp.write_text(_csv_text(result.rows), encoding="utf-8")
     inputs = [Path(v) for v in (args.input, args.handles, args.reference) if v is not None]

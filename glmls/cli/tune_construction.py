@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..analysis.construction import DEFAULT_RADIUS
+from ..analysis.construction import DEFAULT_RADIUS, check_window_memory
 from ..analysis.construction_ranking import (
     parse_construction,
     parse_constructions,
@@ -22,11 +22,13 @@ from ..analysis.construction_ranking import (
 from ..core.config import MLSConfig
 from ..core.handleset import HandleSet
 from ..files.atomic import atomic_write
+from ..files.json_out import write_json
 from .inputs import make_mls, reference_or_handles, say
 from .options import UsageError, nonnegative_int, text_table
 
 __all__ = [
     "OUTPUTS",
+    "check_construction_memory",
     "check_construction_options",
     "configure_construction",
     "construction_table",
@@ -83,6 +85,21 @@ def check_construction_options(args: argparse.Namespace) -> None:
         parse_constructions(specs)
     except ValueError as error:
         raise UsageError(f"--construction-methods: {error}") from None
+
+
+def check_construction_memory(args: argparse.Namespace, image, reference, handles) -> None:
+    """:class:`UsageError`, before the tune, for ``--construction`` windows of
+    ``--construction-radius`` around the reference points (or the handles) that need more
+    than this machine's memory: the ranking runs after the whole tune."""
+    if not args.construction:
+        return
+    # the points reference_or_handles ranks at (without its word, said when it ranks)
+    points = len(reference) if reference is not None else len(handles.source_points())
+    channels = image.shape[2] if image.ndim == 3 else 1
+    try:
+        check_window_memory(args.construction_radius, points, channels)
+    except ValueError as error:
+        raise UsageError(f"--construction-radius {args.construction_radius}: {error}") from None
 
 
 _TABLE_COLUMNS = (
@@ -207,8 +224,7 @@ def run_construction(
         "units": UNITS,
         "ranking": rows,
     }
-    with atomic_write(out / OUTPUTS[0]) as tmp:
-        tmp.write_text(json.dumps(document, indent=2) + "\n", encoding="utf-8")
+    write_json(out / OUTPUTS[0], document)
     with atomic_write(out / OUTPUTS[1]) as tmp:
         tmp.write_text(_csv_text(rows), encoding="utf-8")
     print(construction_table(rows))

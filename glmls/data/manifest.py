@@ -215,7 +215,8 @@ def _item(manifest: Path, where: str, entry: object) -> StudyItem:
         return fail(manifest, f'{where}."{field}"', str(error))
 
     if not files["image"].is_file():
-        raise problem("image", f"{files['image']}: no such file")
+        exists = files["image"].exists()  # a folder: not "no such file"
+        raise problem("image", f"{files['image']}: {'not a file' if exists else 'no such file'}")
     try:
         shape = image_shape(files["image"])
     except (OSError, ValueError) as error:

@@ -242,6 +242,13 @@ def test_bad_manifest_files(files):
         read_manifest(files / "missing.json")
 
 
+def test_an_image_that_is_a_folder_is_named_so(files):
+    (files / "folder").mkdir()
+    entries = [{"image": "folder", "handles": "h.json", "reference": "r.json"}]
+    with pytest.raises(InputFileError, match=r'"image": .*folder: not a file'):
+        read_manifest(write_manifest(files, entries))
+
+
 def test_a_spec_that_repeats_a_configuration_on_one_image_keeps_the_places(gl):
     """On "small" (diagonal 51.2) the explicit radius 25.6 is the default grid's half
     diagonal too: the repeat is tuned once, and the rows after it still hold one

@@ -12,6 +12,8 @@ import pytest
 import glmls
 from glmls.app.controller import BINDINGS, Controller
 from glmls.app.events import (
+    KEY_NAMES,
+    MAX_WAIT_FRAMES,
     Key,
     Move,
     Press,
@@ -198,3 +200,31 @@ def test_bad_scroll_entries(tmp_path, entry, match):
     path.write_text(json.dumps([entry]))
     with pytest.raises(glmls.errors.InputFileError, match=match):
         read_events(path)
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("[" * 100_000 + "]" * 100_000, "nested too deeply to be events"),
+        ('[{"type": "wait", "frames": 99999999999999999999999}]', r"integer in 0\.\.1000000"),
+        ('[{"type": "wait", "frames": 1000001}]', r"integer in 0\.\.1000000"),
+        ('[{"type": "key", "key": "ctrl+z"}]', "got 'ctrl\\+z'"),
+        ('[{"type": "key", "key": "Esc"}]', "got 'Esc'"),
+        ('[{"type": "key", "key": "tt"}]', "a character typed, one of F1, Escape"),
+        ('[{"type": "key", "key": "Ctrl+Shift+7"}]', "got 'Ctrl\\+Shift\\+7'"),
+    ],
+)
+def test_hostile_replays_are_one_error_each(tmp_path, text, match):
+    """A replay that would crash the reader, run for ever, or name a key no window feeds
+    (a typo: the window would ignore it unsaid) is refused naming the file and entry."""
+    path = tmp_path / "events.json"
+    path.write_text(text)
+    with pytest.raises(glmls.errors.InputFileError, match=match):
+        read_events(path)
+
+
+def test_every_key_a_window_feeds_reads_back(tmp_path):
+    keys = ["t", "?", "+", "]", "0", " ", *KEY_NAMES, "Ctrl+Z", "Ctrl+Shift+Z", "Ctrl+Y"]
+    path = tmp_path / "keys.json"
+    write_events(path, [Key(k) for k in keys] + [Wait(MAX_WAIT_FRAMES)])
+    assert read_events(path) == [Key(k) for k in keys] + [Wait(MAX_WAIT_FRAMES)]

@@ -98,6 +98,37 @@ def test_usage_errors_exit_2_with_one_line(capsys, monkeypatch):
     assert "glmls must be among --tools" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("timeout", ["inf", "1e10", "nan", "-1", "0"])
+def test_a_timeout_the_wait_cannot_take_is_refused(capsys, monkeypatch, timeout):
+    """inf and 1e10 s overflowed the child's wait (a traceback, after the first case began)."""
+    monkeypatch.setattr(bench, "_spawn", lambda *a: pytest.fail("no case may run"))
+    assert bench.run(parse("--timeout", timeout)) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--timeout must be > 0 and at most 604800 s" in err[0], err
+    assert bench.MAX_TIMEOUT == 7 * 86400
+
+
+@pytest.mark.parametrize(
+    ("option", "value", "words"),
+    [
+        ("--sizes", "64,,64", "expected integers separated by commas"),
+        ("--sizes", "64,", "expected integers separated by commas"),
+        ("--sizes", "64,32,64", "64 given twice"),
+        ("--handles", "16, 16", "16 given twice"),
+        ("--tolerances", "0.05,0.05", "0.05 given twice"),
+        ("--tools", "glmls,,molesq", "expected names separated by commas"),
+        ("--tools", "glmls,glmls", "glmls given twice"),
+    ],
+)
+def test_lists_with_an_empty_or_repeated_item_are_refused(capsys, option, value, words):
+    """A repeated size ran twice, and the table compared a case with its own second run."""
+    with pytest.raises(SystemExit) as stopped:
+        parse(option, value)
+    assert stopped.value.code == 2
+    assert words in capsys.readouterr().err
+    assert parse(option, value.replace(",,", ",").rstrip(",").split(",")[0])  # one item: fine
+
+
 def test_inputs_are_reproducible():
     a = make_inputs(64, 10)
     b = make_inputs(64, 10)

@@ -118,6 +118,22 @@ def test_demo_refuses_to_save_over_a_file_it_reads(tmp_path, capsys, option, nam
     assert (tmp_path / name).read_bytes() == before
 
 
+@pytest.mark.parametrize("spelling", ["out.png", "./sub/../out.png"])
+def test_demo_refuses_one_file_for_the_screenshot_and_the_recording(
+    tmp_path, capsys, monkeypatch, spelling
+):
+    """Both are written on exit: the recording would replace the screenshot (or the
+    reverse). Refused before the window opens, however the name is spelled."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "sub").mkdir()
+    glmls.imwrite(tmp_path / "in.png", np.zeros((8, 8), np.uint8))
+    args = ["demo", "in.png", "--screenshot", "out.png", "--record", spelling, "--frames", "1"]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "two outputs of one file" in err and err.count("\n") == 1, err
+    assert not (tmp_path / "out.png").exists()
+
+
 def test_demo_says_the_spacing_a_file_gives_as_warp_does():
     """``demo`` reads a volume as ``warp`` does (``read_volume``): its --help names the same
     sources of the file's spacing, an OME-TIFF's among them."""

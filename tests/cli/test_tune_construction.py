@@ -124,6 +124,19 @@ def test_repeated_or_malformed_methods_are_refused_before_any_work(
     assert not (tmp_path / "out").exists()
 
 
+def test_windows_beyond_the_memory_are_refused_before_the_tune(tmp_path, capsys, monkeypatch):
+    """The ranking runs after the whole tune: windows it could not hold were refused only
+    then, with the tune's outputs written. Now before any work, naming the option."""
+    monkeypatch.setattr(tune, "tune", lambda *a, **k: pytest.fail("the tune may not run"))
+    args = ["tune", "--example", "--out", str(tmp_path / "out"), "--trials", "1"]
+    assert main([*args, "--construction", "--construction-radius", "100000"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("glmls tune: --construction-radius 100000: ")
+    assert "construction_errors' windows of radius 100000" in lines[0]
+    assert "more than this machine's memory" in lines[0]
+    assert not (tmp_path / "out").exists()
+
+
 def test_the_library_refuses_them_too():
     assert parse_construction("splat") == ("splat", "nearest")
     assert parse_construction(("splat", "nearest")) == ("splat", "nearest")

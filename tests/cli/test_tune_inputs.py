@@ -105,3 +105,27 @@ def test_a_construction_ranking_this_run_writes_replaces_the_earlier_one(inputs,
     ranking = json.loads((inputs / "out" / "construction.json").read_text())["ranking"]
     assert [row["label"] for row in ranking] == ["backward linear"]
     assert "removed" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("shape", [(3, 200), (2, 150)])
+def test_an_image_a_few_pixels_across_ranks_in_standard_json(tmp_path, capsys, shape):
+    """The mesh of the angle measure had no cell across a strip thinner than its step (NaN,
+    numpy's warning on stderr, NaN and Infinity in ranking.json): it has the strip's two
+    edges now, and ranking.json is standard JSON whatever a measure is."""
+    glmls.imwrite(tmp_path / "thin.png", np.full(shape, 128, np.uint8))
+    bottom = shape[0] - 1
+    src = [[20, 0], [100, bottom], [140, 0]]
+    dst = [[22, bottom], [100, 0], [138, bottom]]
+    (tmp_path / "h.json").write_text(json.dumps({"src": src, "dst": dst}))
+    points = [[10, 0], [60, bottom], [120, 0], [145, bottom]]
+    (tmp_path / "r.json").write_text(json.dumps({"points": points}))
+    args = ["tune", str(tmp_path / "thin.png"), "--handles", str(tmp_path / "h.json"),
+            "--reference", str(tmp_path / "r.json"), "--trials", "2",
+            "--configs", "rigid:idw", "--out", str(tmp_path / "out")]  # fmt: skip
+    assert run_main(*args) == 0
+    err = capsys.readouterr().err
+    assert "RuntimeWarning" not in err and "Mean of empty slice" not in err, err
+    text = (tmp_path / "out" / "ranking.json").read_text()
+    document = json.loads(text, parse_constant=lambda name: pytest.fail(f"{name} in JSON"))
+    row = document["ranking"][0]
+    assert np.isfinite(row["mesh_angle_mean"]) and np.isfinite(row["mesh_angle_spread"])

@@ -41,6 +41,8 @@ from .cases import (
 )
 
 HELP = "benchmarks against peers, same inputs"
+#: The longest --timeout, seconds (a week): beyond it the wait's clock overflows.
+MAX_TIMEOUT = 7 * 86400.0
 EXAMPLES = """
 examples:
   glmls bench --quick --out out/bench        # 1024^2, 64 handles, grid 1 and 4
@@ -89,37 +91,52 @@ class UsageError(ValueError):
     """A bad command line (exit status 2)."""
 
 
+def _items(text: str, what: str) -> list[str]:
+    """The comma-separated items of ``text``; ``ArgumentTypeError`` for an empty one (``64,,
+    64``, a trailing comma) or one given twice (its cases would run twice, and the table's
+    ratios compare a case with its own second run)."""
+    items = [v.strip() for v in text.split(",")]
+    if not text.strip() or not all(items):
+        raise argparse.ArgumentTypeError(f"expected {what} separated by commas, got {text!r}")
+    twice = sorted({v for v in items if items.count(v) > 1})
+    if twice:
+        raise argparse.ArgumentTypeError(f"{', '.join(twice)} given twice in {text!r}")
+    return items
+
+
 def _int_list(text: str) -> list[int]:
+    items = _items(text, "integers")
     try:
-        values = [int(v) for v in text.split(",") if v.strip()]
+        values = [int(v) for v in items]
     except ValueError:
         raise argparse.ArgumentTypeError(
             f"expected integers separated by commas, got {text!r}"
         ) from None
-    if not values or min(values) < 1:
-        raise argparse.ArgumentTypeError(f"expected positive integers, got {text!r}")
+    if min(values) < 1 or len(set(values)) < len(values):
+        raise argparse.ArgumentTypeError(f"expected distinct positive integers, got {text!r}")
     return values
 
 
 def _float_list(text: str) -> list[float]:
+    items = _items(text, "numbers")
     try:
-        values = [float(v) for v in text.split(",") if v.strip()]
+        values = [float(v) for v in items]
     except ValueError:
         raise argparse.ArgumentTypeError(
             f"expected numbers separated by commas, got {text!r}"
         ) from None
-    if not values or not all(math.isfinite(v) and v > 0 for v in values):
-        raise argparse.ArgumentTypeError(f"expected positive numbers, got {text!r}")
+    if not all(math.isfinite(v) and v > 0 for v in values) or len(set(values)) < len(values):
+        raise argparse.ArgumentTypeError(f"expected distinct positive numbers, got {text!r}")
     return values
 
 
 def _name_list(choices: Sequence[str]):
     def parse(text: str) -> list[str]:
-        values = [v.strip() for v in text.split(",") if v.strip()]
+        values = _items(text, "names")
         bad = [v for v in values if v not in choices]
-        if bad or not values:
+        if bad:
             raise argparse.ArgumentTypeError(
-                f"unknown {', '.join(bad) or 'empty list'}; choose from {', '.join(choices)}"
+                f"unknown {', '.join(bad)}; choose from {', '.join(choices)}"
             )
         return values
 
@@ -182,8 +199,8 @@ def _settings(args: argparse.Namespace) -> dict:
     }
     if settings["repeat"] < 1:
         raise UsageError(f"--repeat must be >= 1, got {settings['repeat']}")
-    if not args.timeout > 0:
-        raise UsageError(f"--timeout must be > 0, got {args.timeout}")
+    if not 0 < args.timeout <= MAX_TIMEOUT:  # NaN and inf too: the wait takes whole seconds
+        raise UsageError(f"--timeout must be > 0 and at most {MAX_TIMEOUT:g} s, got {args.timeout}")
     return settings
 
 
