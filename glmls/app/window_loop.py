@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from ..files.atomic import same_file
 from ..files.images import imwrite
 from ..gl.context import get_context
 from .events import Event, Recorder, Wait
@@ -205,7 +206,7 @@ class WindowLoop:
         """``path``, where saving there replaces none of the files read; else ``ValueError``
         (said in the window as the save's failure)."""
         for read, what in self._read_files.items():
-            if _same_file(path, read):
+            if same_file(path, read):
                 raise ValueError(f"{path} is {what}, which saving would replace")
         return path
 
@@ -381,12 +382,3 @@ class WindowLoop:
             if quiet:
                 raise
             self.say(f"screenshot failed: {error}")
-
-
-def _same_file(a: Path, b: Path) -> bool:
-    """Whether ``a`` and ``b`` name one file (the same file where both exist, else the same
-    absolute path)."""
-    try:
-        return a.samefile(b)
-    except OSError:
-        return a.resolve() == b.resolve()

@@ -21,7 +21,7 @@ from ..analysis.construction_ranking import (
 )
 from ..core.config import MLSConfig
 from ..core.handleset import HandleSet
-from ..files.atomic import atomic_write
+from ..files.atomic import atomic_write, same_file
 from ..files.json_out import write_json
 from .inputs import make_mls, reference_or_handles, say
 from .options import UsageError, nonnegative_int, text_table
@@ -170,7 +170,7 @@ def remove_former_construction(args: argparse.Namespace, inputs: list[Path]) -> 
     removed = []
     for name in OUTPUTS:
         path = Path(args.out) / name
-        if not _written_here(path) or any(_same_file(path, other) for other in inputs):
+        if not _written_here(path) or any(same_file(path, other) for other in inputs):
             continue
         try:
             path.unlink()
@@ -183,13 +183,6 @@ def remove_former_construction(args: argparse.Namespace, inputs: list[Path]) -> 
             ) from None
         removed.append(path)
     return removed
-
-
-def _same_file(path: Path, other: Path) -> bool:
-    try:
-        return path.samefile(other)
-    except OSError:
-        return False
 
 
 def run_construction(

@@ -11,9 +11,25 @@ from pathlib import Path
 
 from .parsing import as_path
 
-__all__ = ["atomic_write", "missing_folders", "remove_leftovers", "umask"]
+__all__ = ["atomic_write", "missing_folders", "remove_leftovers", "same_file", "umask"]
 
 _umask_lock = threading.Lock()
+
+
+def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
+    """Whether ``a`` and ``b`` name one file: the same file where both exist (a link, another
+    spelling of the name), else the same absolute path.
+
+    Examples
+    --------
+    >>> from glmls.files.atomic import same_file
+    >>> same_file("out/../a.png", "a.png"), same_file("a.png", "b.png")
+    (True, False)
+    """
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return Path(a).resolve() == Path(b).resolve()
 
 
 def umask() -> int:
