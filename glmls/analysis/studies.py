@@ -296,14 +296,14 @@ class StudyResult:
                 "ranking": result.rows,
                 "skipped": result.skipped,
             }
-            _write_json(out / name / "ranking.json", document)
-        _write_json(out / "table.json", {"images": self.names, "configurations": rows})
+            write_json(out / name / "ranking.json", document)
+        write_json(out / "table.json", {"images": self.names, "configurations": rows})
         with atomic_write(out / "table.csv") as tmp:
             tmp.write_text(_csv(rows, self.names), encoding="utf-8")
         picture = render_heatmap(rows, self.names, title=summary["answer"])
         with atomic_write(out / "heatmap.png") as tmp:
             Image.fromarray(picture).save(tmp, format="PNG")
-        _write_json(out / "summary.json", summary)
+        write_json(out / "summary.json", summary)
         return summary
 
 
@@ -672,10 +672,6 @@ def _csv(rows: list[dict], names: list[str]) -> str:
             cells.append("" if score is None else f"{score:.6g}")
         lines.append(",".join(cells))
     return "\n".join(lines) + "\n"
-
-
-def _write_json(path: Path, document: dict) -> None:
-    write_json(path, document)
 
 
 def render_heatmap(rows: list[dict], names: list[str], *, title: str = "") -> np.ndarray:

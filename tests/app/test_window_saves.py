@@ -15,6 +15,11 @@ SRC = [[10.0, 10.0], [30.0, 12.0], [20.0, 25.0]]
 DST = [[11.0, 10.0], [30.0, 13.0], [19.0, 25.0]]
 
 
+def window(out_dir, **options) -> App:
+    """An image window named "img", saving into ``out_dir`` (not opened)."""
+    return App(np.zeros((32, 48), np.uint8), SRC, DST, name="img", out_dir=out_dir, **options)
+
+
 def said(app: App) -> str:
     return " ".join(" ".join(app.readout()).split())
 
@@ -26,14 +31,7 @@ def said(app: App) -> str:
 def test_a_save_over_a_file_read_is_refused_and_said(gl, tmp_path, key, name):
     read = tmp_path / name
     read.write_text("kept")
-    app = App(
-        np.zeros((32, 48), np.uint8),
-        SRC,
-        DST,
-        name="img",
-        out_dir=tmp_path,
-        read_files={read: "the --reference file"},
-    )
+    app = window(tmp_path, read_files={read: "the --reference file"})
     app.feed(Key(key))
     assert read.read_text() == "kept"
     assert f"{name} is the --reference file, which saving would replace" in said(app)
@@ -47,15 +45,7 @@ def test_the_handles_file_is_saved_over_and_other_saves_go_through(gl, tmp_path)
     handles = tmp_path / "img-handles.json"
     handles.write_text("{}")
     other = tmp_path / "elsewhere.json"
-    app = App(
-        np.zeros((32, 48), np.uint8),
-        SRC,
-        DST,
-        name="img",
-        out_dir=tmp_path,
-        handles_path=handles,
-        read_files={other: "the --reference file"},
-    )
+    app = window(tmp_path, handles_path=handles, read_files={other: "the --reference file"})
     app.feed(Key("j"))
     assert '"src"' in handles.read_text()
     assert "saved" in said(app)
