@@ -127,6 +127,23 @@ def test_hostile_points(gl):
         assert_allclose(inverse(np.array([[30, 20]], np.int64)), inverse([[30.0, 20.0]]))
 
 
+@pytest.mark.parametrize(
+    ("src", "dst"),
+    [([[5.0, 5.0]], [[8.0, 9.0]]), ([[5.0, 5.0], [6.0, 5.0]], [[8.0, 9.0], [9.0, 9.0]])],
+)
+def test_far_points_of_handles_in_a_pixel_box_keep_their_preimage(gl, src, dst):
+    """Handles within a pixel and no shape: Newton's differences there shrink with the box
+    (an eighth of a pixel), below float32's step of points 5e5-9e5 px away; they take at
+    least 2^-16 of the point's coordinate, so f (a translation by (3, 4)) is inverted
+    there too instead of every far point being left without a preimage."""
+    u = np.array([[6e5, 6e5], [9e5, 9e5], [-9.5e5, 4e5]])
+    with glmls.MLS(src, dst, ctx=gl) as m:
+        s, valid = m.inverse(u, return_valid=True)
+    assert valid.all()
+    tolerance = 1e-7 * np.abs(u).max(axis=1) * 4
+    assert (np.abs(s - (u - [3.0, 4.0])).max(axis=1) <= tolerance).all()
+
+
 def test_the_inverse_follows_set_handles_and_release(gl):
     m = glmls.MLS([[10, 10]], [[12, 10]], shape=SHAPE, ctx=gl)
     inverse = m.inverse

@@ -31,6 +31,10 @@ HIGH_COLOR = (220, 0, 0)
 LEAST_SPANS = MappingProxyType(
     {"E_MLS": 1e-6, "distance": 1e-3, "angle": 1e-3, "construction": 1e-3, "det_j": 1e-3}
 )
+#: E_MLS's scale spans at least this share of its largest value too: the GPU's float32
+#: rounding of the field grows with it (a few 1e-7 of E where E is in the hundreds), and
+#: takes one colour of 256 only where the scale is some 500 times wider.
+LEAST_RELATIVE_SPAN = 1e-3
 
 #: The longest side of a colour bar, pixels: that of the pictures glmls draws on the GPU on
 #: most devices (``GL_MAX_TEXTURE_SIZE``), beside which a bar goes.
@@ -277,7 +281,7 @@ def picture_limits(
         A robust upper bound, as :func:`color_limits` takes it.
     unit : float, optional
         The length of a pixel (voxel) in the values' units: E_MLS's least span is taken in
-        square units of it, the distance error's in units.
+        square units of it (the distance error is relative, the angles in degrees).
 
     Returns
     -------
@@ -305,7 +309,12 @@ def picture_limits(
     if quantity not in LEAST_SPANS:
         raise ValueError(f"quantity must be one of {sorted(LEAST_SPANS)}, got {quantity!r}")
     length = check_real("unit", unit, low=0, low_open=True)
-    span = LEAST_SPANS[quantity] * {"E_MLS": length**2, "distance": length}.get(quantity, 1.0)
+    span = LEAST_SPANS[quantity] * (length**2 if quantity == "E_MLS" else 1.0)
+    if quantity == "E_MLS":
+        array = real_values(values)
+        finite = np.abs(array[np.isfinite(array)])
+        if finite.size:
+            span = max(span, LEAST_RELATIVE_SPAN * float(finite.max()))
     if quantity == "construction":
         lo: float | None = 0.0
     elif quantity == "det_j":
@@ -385,14 +394,32 @@ def apply_colormap(
     return out
 
 
-def format_number(value: float) -> str:
-    """Short tick label: 3 significant digits (whole numbers from 100 on), scientific
-    outside [0.01, 10000)."""
-    if 100 <= abs(value) < 1e4:
-        return f"{value:.0f}"
-    if value == 0 or 0.01 <= abs(value) < 100:
-        return f"{value:.3g}"
-    return f"{value:.2e}".replace("e+0", "e").replace("e-0", "e-").replace("e+", "e")
+def format_number(value: float, digits: int = 3) -> str:
+    """Short tick label: ``digits`` significant digits (whole numbers from 100 on at 3),
+    scientific outside [0.01, 10000)."""
+    size = abs(value)
+    if 100 <= size < 1e4:
+        whole = len(str(int(size)))  # digits before the point
+        return f"{value:.{max(digits - whole, 0)}f}"
+    if value == 0 or 0.01 <= size < 100:
+        return f"{value:.{digits}g}"
+    text = f"{value:.{digits - 1}e}"
+    return text.replace("e+0", "e").replace("e-0", "e-").replace("e+", "e")
+
+
+#: The most significant digits :func:`tick_labels` gives a label.
+MAX_TICK_DIGITS = 12
+
+
+def tick_labels(values: Sequence[float]) -> list[str]:
+    """The labels of ticks at ``values`` (increasing): :func:`format_number`'s, with as many
+    more digits (up to :data:`MAX_TICK_DIGITS`) as neighbouring ticks need to read apart
+    (0.333 to 0.334 in five ticks: 0.3330, 0.3333, ...)."""
+    for digits in range(3, MAX_TICK_DIGITS + 1):
+        labels = [format_number(float(v), digits) for v in values]
+        if all(a != b for a, b, x, y in zip(labels, labels[1:], values, values[1:]) if x != y):
+            break
+    return labels
 
 
 def colorbar(
@@ -469,14 +496,18 @@ def colorbar(
     font_size = check_integer("font_size", font_size, 1, MAX_FONT_SIZE)
     font = ImageFont.load_default(size=font_size)
     values = np.linspace(lo, hi, ticks)
-    labels = [format_number(float(v)) for v in values]
+    labels = tick_labels(values)
     text_width = max(int(font.getlength(text)) for text in labels)
+    # a tick's mark, then a gap as wide as half a digit's height: the mark right before the
+    # digits read as a minus sign
+    mark, gap = 5, max(3, font_size // 2)
     margin = font_size  # room for half a label above the top tick and below the bottom one
     top = margin + (font_size + 4 if label else 0)
-    width = max(thickness + 6 + text_width + 4, int(font.getlength(label)) + 4 if label else 0)
+    labelled = thickness + mark + gap + text_width + 4
+    width = max(labelled, int(font.getlength(label)) + 4 if label else 0)
     height = top + length + margin
     if width > MAX_BAR_SIDE:
-        cause = "label" if width > thickness + 6 + text_width + 4 else f"thickness {thickness}"
+        cause = "label" if width > labelled else f"thickness {thickness}"
         raise ValueError(
             f"{cause} makes the colour bar {width} pixels wide at font_size {font_size}, "
             f"more than {MAX_BAR_SIDE}; shorten it, or make the font smaller"
@@ -492,8 +523,8 @@ def colorbar(
     for value, text in zip(values, labels, strict=True):
         frac = 0.0 if hi == lo else (value - lo) / (hi - lo)
         y = top + round((1.0 - frac) * (length - 1))
-        draw.line([(thickness, y), (thickness + 4, y)], fill=ink)
-        draw.text((thickness + 6, y), text, fill=ink, font=font, anchor="lm")
+        draw.line([(thickness, y), (thickness + mark - 1, y)], fill=ink)
+        draw.text((thickness + mark + gap, y), text, fill=ink, font=font, anchor="lm")
     if label:
         draw.text((0, 2), label, fill=ink, font=font, anchor="la")
     return np.asarray(image)

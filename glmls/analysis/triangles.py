@@ -72,7 +72,10 @@ class TriangleErrors:
         (T,) bool: whether f reverses the triangle's orientation or flattens it to zero
         area, to within f's rounding (32 times float32's epsilon for a :class:`glmls.MLS`,
         float64's for another function, of the edges' and f's scale): a fold-over; the
-        corner angles of a mirrored triangle are the same, so ``angle`` does not show it.
+        corner angles of a mirrored triangle are the same, so ``angle`` does not show it. A
+        reference triangle already within that rounding of zero area (two points a fraction
+        of a pixel apart), which any f leaves within it, counts only where f clearly
+        reverses it.
     eps : float
         The epsilon of eq. (11).
     angle_measure : str
@@ -249,12 +252,17 @@ def triangle_errors_from_points(
     # a fold: f turns the triangle over or crushes it flat. Rounding moves each f(r) by about
     # rounding x (|f(r)| + the stretch x |r|): an image within that of zero area has no
     # orientation, its sign mere rounding (as the 3D analysis's flattened tetrahedra)
-    area = signed_area(out)
+    area, before = signed_area(out), signed_area(ref)
     a, b = (np.hypot(*(out[:, k] - out[:, 0]).T) for k in (1, 2))
     stretch = (len_out / len_ref).max(axis=1)  # f's, edge by edge: not the shape's aspect
     noise = np.abs(out).max(axis=(1, 2)) + stretch * np.abs(ref).max(axis=(1, 2))
     flat = flat_areas(area, a, b, rounding, noise)
-    flipped = (np.sign(signed_area(ref)) * area <= 0) | flat
+    reversed_ = np.sign(before) * area <= 0
+    # a reference triangle itself within that rounding of zero area (points a fraction of a
+    # pixel apart): any f, the identity too, leaves it within rounding of flat, so only a
+    # clear reversal counts
+    sliver = flat_areas(before, len_ref[:, 0], len_ref[:, 2], rounding, noise)
+    flipped = np.where(sliver, reversed_ & ~flat, reversed_ | flat)
     return distance, angle_error, flipped
 
 

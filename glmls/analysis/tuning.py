@@ -17,7 +17,8 @@ the reference triangles is the main criterion (weight 0.4), as the paper recomme
 smoothness around the handles (a spike cannot hide there), the predictive error on known
 deformations, E_MLS and the distance error share the rest. Ranks, not ratios: no value is
 ever divided by the run's best, so one exact configuration cannot blow the others' scores up.
-``pareto`` marks the configurations that no other beats on every criterion's mean.
+``pareto`` marks the admissible configurations that no other admissible one beats on every
+criterion's mean (a set-apart one is never marked, and beats none).
 
 Set-apart configurations follow the ranked ones (those that only fold before those that miss
 their targets), ranked the same way among themselves.

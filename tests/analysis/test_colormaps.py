@@ -163,3 +163,30 @@ def test_colorbar_draws_its_largest_options():
 )
 def test_number_format(value, text):
     assert colormaps.format_number(value) == text
+
+
+@pytest.mark.parametrize(
+    ("lo", "hi", "labels"),
+    [
+        (0.0, 2.0, ["0", "0.5", "1", "1.5", "2"]),
+        (1 / 3, 0.3342, ["0.3333", "0.3336", "0.3338", "0.334", "0.3342"]),
+        (259.9999, 260.0003, ["259.9999", "260.0000", "260.0001", "260.0002", "260.0003"]),
+        (15000.0, 15004.0, ["1.5000e4", "1.5001e4", "1.5002e4", "1.5003e4", "1.5004e4"]),
+    ],
+)
+def test_tick_labels_tell_neighbouring_ticks_apart(lo, hi, labels):
+    """3 significant digits, or as many more as the ticks of a narrow scale need."""
+    assert colormaps.tick_labels(np.linspace(lo, hi, 5)) == labels
+    assert colormaps.tick_labels([1.0, 1.0]) == ["1", "1"]  # equal values: no more digits
+
+
+def test_a_tick_mark_stands_apart_from_its_label():
+    """The mark at the bar's edge, then a gap of half the digits' height before them: a
+    mark right before the digits reads as a minus sign."""
+    bar = glmls.analysis.colorbar("viridis", 1.0, 2.0, length=64, thickness=10, ticks=2)
+    row = bar[12] < 128  # the top tick's row, 12 px of margin above the bar
+    ink = np.flatnonzero(row.all(axis=1))
+    mark = ink[ink < 16]
+    assert mark.tolist() == [10, 11, 12, 13, 14]
+    digits = np.flatnonzero((bar[6:19] < 128).all(axis=2).any(axis=0))
+    assert digits[digits > 14].min() >= 15 + 6  # half of the 12 px font between

@@ -51,7 +51,8 @@ def test_picture_limits_by_quantity():
     close = pytest.approx
     assert colormaps.picture_limits("E_MLS", tiny) == close((1e-9, 1e-9 + 1e-6), abs=1e-18)
     assert colormaps.picture_limits("E_MLS", tiny, unit=0.5) == close((1e-9, 1e-9 + 0.25e-6))
-    assert colormaps.picture_limits("distance", tiny, unit=0.5) == close((1e-9, 1e-9 + 0.5e-3))
+    # the distance error is relative: its span does not follow the unit of length
+    assert colormaps.picture_limits("distance", tiny, unit=0.5) == close((1e-9, 1e-9 + 1e-3))
     assert colormaps.picture_limits("angle", tiny) == close((1e-9, 1e-9 + 1e-3))
     # wide enough: the least error (white at the minimum, as the paper's figures) to the most
     assert colormaps.picture_limits("angle", [0.5, 2.0, 40.0]) == (0.5, 40.0)
@@ -64,6 +65,22 @@ def test_picture_limits_by_quantity():
         colormaps.picture_limits("E_MLS", tiny, unit=0.0)
     with pytest.raises(TypeError, match="unit"):
         colormaps.picture_limits("E_MLS", tiny, unit="1")
+
+
+def test_a_large_error_field_equal_but_for_float32_takes_one_colour():
+    """E_MLS of a global fit is the same everywhere, about 260 px², and the GPU's float32
+    rounds it by about 1e-4 px² from pixel to pixel: the scale spans 1e-3 of it, so that
+    the picture is one colour rather than that rounding stretched over the map."""
+    rounding = 260.0 + np.array([-9e-5, 0.0, 3e-5])
+    lo, hi = colormaps.picture_limits("E_MLS", rounding)
+    assert lo == rounding.min() and hi == pytest.approx(lo + 260.00003e-3)
+    colours = colormaps.apply_colormap(rounding, vmin=lo, vmax=hi)
+    assert (colours == colours[0]).all()
+    # a variation of 1e-4 of the field shows
+    varied = colormaps.apply_colormap([260.0, 260.026], vmin=lo, vmax=hi)
+    assert (varied[0] != varied[1]).any()
+    # a field that does vary keeps its whole scale
+    assert colormaps.picture_limits("E_MLS", [10.0, 260.0]) == (10.0, 260.0)
 
 
 def test_a_rotation_reports_no_colour_for_its_rounding(gl, rng):

@@ -249,6 +249,26 @@ def test_a_triangle_flattened_to_float32_rounding_is_a_fold(gl):
             assert not glmls.analysis.triangle_errors(small, points).flipped.any()
 
 
+@pytest.mark.parametrize("apart", [1e-4, 1e-7, 1e-10])
+def test_a_reference_sliver_folds_only_where_f_clearly_turns_it_over(gl, apart):
+    """Two reference points a fraction of a pixel apart make triangles already within f's
+    float32 rounding of zero area: the identity (f(r) = r bit for bit) folds none of them,
+    where a flatness test on f(r) alone called every such sliver a fold (and tune set every
+    configuration apart); a mirror still turns every other triangle over."""
+    src = np.array([[20.0, 20], [100, 20], [20, 80], [100, 80], [60, 50]])
+    points = np.array([[10, 10], [110, 15], [15, 85], [105, 80], [40, 30], [60, 45]])
+    points = np.vstack([points, [60.0, 45.0 + apart]])
+    with glmls.MLS(src, src.copy(), ctx=gl) as m:
+        errors = glmls.analysis.triangle_errors(m, points)
+    assert np.array_equal(errors.deformed_points, errors.points)
+    assert len(errors.simplices) >= 7 and not errors.flipped.any()
+    mirror = src * [-1.0, 1.0] + [120.0, 0.0]
+    with glmls.MLS(src, mirror, transform="affine", ctx=gl) as m:
+        mirrored = glmls.analysis.triangle_errors(m, points)
+    slivers = np.isin(mirrored.simplices, [5, 6]).sum(axis=1) == 2
+    assert slivers.sum() == 2 and mirrored.flipped[~slivers].all()
+
+
 def test_a_thin_triangle_kept_whole_is_no_fold(gl):
     """A thin reference triangle (0.2 px high, 60 px long, at x ~ 500) that f leaves as it is:
     its orientation is thousands of float32 steps clear of rounding, and f does not stretch

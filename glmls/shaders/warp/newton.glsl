@@ -38,6 +38,18 @@ float warp_damped_h() {
     return 0.03125 * u_newton_unit / u_scale;
 }
 
+// The least step of a difference at s, per unit of s's largest scaled coordinate: far from
+// the scaling's centre a step of a fixed length is a few of float32's steps of s, or none
+// (at 6e5 pixels of handles in a box of a pixel), and the difference is rounding; at
+// 2^7 float32 steps the rounding stays below 1 % of the Jacobian, enough to steer Newton.
+const float WARP_STEP_FLOOR = 1.52587890625e-5;   // 2^-16
+
+// A difference's step at s (scaled): ``h``, or WARP_STEP_FLOOR of s's largest coordinate.
+float warp_step_at(float h, vec2 s) {
+    vec2 a = abs(s);
+    return max(h, WARP_STEP_FLOOR * max(a.x, a.y));
+}
+
 // The longer column of a Jacobian (df/dx, df/dy): warp_accepted's hint.
 float warp_hint(vec2 jx, vec2 jy) {
     return max(length(jx), length(jy));
@@ -93,7 +105,7 @@ bool warp_accepted(float accept, float steps, vec2 u, vec2 s, float residual, fl
     bool measure = !(residual <= plain) &&
                    residual <= warp_accept_at(accept, steps, u, s, 2.0 * hint) &&
                    warp_evaluations(most) == most;
-    float h = warp_damped_h();
+    float h = warp_step_at(warp_damped_h(), s);
     StretchMeasure m = stretch_begin(2);
     int count = measure ? WARP_ACCEPT_EVALUATIONS : 0;
     for (int k = 0; k < count; ++k) {
@@ -133,8 +145,9 @@ vec2 warp_newton(vec2 s, vec2 u, float tolerance, float max_step, out float resi
             break;
         }
         vec2 fs = r + u;
-        vec2 jx = (mls_eval(s + vec2(h, 0.0)).f - fs) / h;   // df/dx
-        vec2 jy = (mls_eval(s + vec2(0.0, h)).f - fs) / h;   // df/dy
+        vec2 at = s + vec2(warp_step_at(h, s));
+        vec2 jx = (mls_eval(vec2(at.x, s.y)).f - fs) / (at.x - s.x);   // df/dx
+        vec2 jy = (mls_eval(vec2(s.x, at.y)).f - fs) / (at.y - s.y);   // df/dy
         hint = warp_hint(jx, jy);
         float det = jx.x * jy.y - jy.x * jx.y;
         if (!(abs(det) > 1e-12)) {
@@ -198,8 +211,9 @@ WarpDamped warp_damped_begin(vec2 start) {
 
 // Where d needs f next.
 vec2 warp_damped_point(WarpDamped d, float h) {
-    return d.phase == WARP_DAMPED_DX   ? d.s + vec2(h, 0.0)
-         : d.phase == WARP_DAMPED_DY   ? d.s + vec2(0.0, h)
+    vec2 at = d.s + vec2(warp_step_at(h, d.s));   // the steps float32 takes (warp_damped_take)
+    return d.phase == WARP_DAMPED_DX   ? vec2(at.x, d.s.y)
+         : d.phase == WARP_DAMPED_DY   ? vec2(d.s.x, at.y)
          : d.phase == WARP_DAMPED_TRY  ? d.s - d.step
                                        : d.s;
 }
@@ -216,11 +230,13 @@ void warp_damped_take(inout WarpDamped d, vec2 f, vec2 u, float h, float toleran
         d.phase = d.residual > tolerance && WARP_NEWTON_STEPS > 0 ? WARP_DAMPED_DX
                                                                   : WARP_DAMPED_DONE;
     } else if (d.phase == WARP_DAMPED_DX) {
-        d.jx = (f - (d.r + u)) / h;   // df/dx
+        vec2 at = d.s + vec2(warp_step_at(h, d.s));
+        d.jx = (f - (d.r + u)) / (at.x - d.s.x);   // df/dx
         d.phase = WARP_DAMPED_DY;
     } else if (d.phase == WARP_DAMPED_DY) {
         vec2 jx = d.jx;
-        vec2 jy = (f - (d.r + u)) / h;   // df/dy
+        vec2 at = d.s + vec2(warp_step_at(h, d.s));
+        vec2 jy = (f - (d.r + u)) / (at.y - d.s.y);   // df/dy
         float det = jx.x * jy.y - jy.x * jx.y;
         vec2 step = vec2(jy.y * d.r.x - jy.x * d.r.y, jx.x * d.r.y - jx.y * d.r.x) / det;
         float len = length(step);
