@@ -173,13 +173,11 @@ _PAIR_BLOCK = 1 << 18
 
 def check_on_segments(p: np.ndarray, q: np.ndarray, a: np.ndarray, b: np.ndarray) -> None:
     """``ValueError`` if a source point lies on a source segment whose target there is not
-    the point's own target, or two source segments cross where their targets differ: f
-    cannot take both values; or if a source segment is no longer than the tolerance below
-    (a point to the GPU).
+    the point's own target: f cannot take both values; or if a source segment is no longer
+    than the tolerance below (a point to the GPU).
 
     The points are the point handles and the ends of the segments (a segment's end on
-    another segment, two segments sharing a vertex), and the crossings of two segments
-    inside both; "on" and "the same target" are up to
+    another segment, two segments sharing a vertex); "on" and "the same target" are up to
     a tolerance of a few float32 steps of the handles' extent (what the GPU tells apart),
     the target's widened by the segment's stretch (its target's length over its own).
 
@@ -209,7 +207,6 @@ def check_on_segments(p: np.ndarray, q: np.ndarray, a: np.ndarray, b: np.ndarray
         )
     found = _first_on_segment(x, y, owner, a, b, tol)
     if found is None:
-        _check_crossings(a, b, tol)
         return
     k, s, t, there = found
     if k < len(p):
@@ -289,78 +286,6 @@ def _first_on_segment(
     step = a[s, 1] - a[s, 0]
     t = float(np.clip(np.dot(x[k] - a[s, 0], step) / np.dot(step, step), 0.0, 1.0))
     return k, s, t, (1.0 - t) * b[s, 0] + t * b[s, 1]
-
-
-def _check_crossings(a: np.ndarray, b: np.ndarray, tol: float) -> None:
-    """``ValueError`` naming the first two source segments (by index) that cross inside both
-    where their targets differ by more than ``tol`` widened by their stretches. Candidate
-    pairs are those whose boxes (widened by ``tol``) overlap along the axis that gives fewer
-    (the segments sorted by their boxes' lower ends), tested :data:`_PAIR_BLOCK` at once."""
-    count = len(a)
-    if count < 2:
-        return
-    low, high = a.min(axis=1) - tol, a.max(axis=1) + tol  # (S, 2) boxes
-    best = None
-    for axis in (0, 1):
-        order = np.argsort(low[:, axis], kind="stable")
-        ends = np.searchsorted(low[order, axis], high[order, axis], "right")
-        counts = np.maximum(ends - np.arange(count) - 1, 0)  # later segments in reach
-        if best is None or counts.sum() < best[2].sum():
-            best = (axis, order, counts)
-    axis, order, counts = best
-    step, target = a[:, 1] - a[:, 0], b[:, 1] - b[:, 0]
-    length = np.hypot(*step.T)
-    stretch = np.hypot(*target.T) / length
-    first = np.cumsum(counts) - counts
-    found: tuple[int, int] | None = None
-    for block in np.split(np.arange(count), np.flatnonzero(np.diff(first // _PAIR_BLOCK)) + 1):
-        n = counts[block]
-        if not n.sum():
-            continue
-        k = np.repeat(block, n)
-        i = order[k]
-        j = order[k + 1 + np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)]
-        other = 1 - axis
-        keep = (low[i, other] <= high[j, other]) & (low[j, other] <= high[i, other])
-        i, j = i[keep], j[keep]
-        t, u, crossing = _crossing(a, step, length, i, j, tol)
-        i, j, t, u = i[crossing], j[crossing], t[crossing], u[crossing]
-        there_i = b[i, 0] + t[:, None] * target[i]
-        there_j = b[j, 0] + u[:, None] * target[j]
-        off = np.hypot(*(there_i - there_j).T) > tol * (1.0 + np.maximum(stretch[i], stretch[j]))
-        if off.any():
-            pairs = sorted(zip(np.minimum(i, j)[off].tolist(), np.maximum(i, j)[off].tolist()))
-            found = pairs[0] if found is None else min(found, pairs[0])
-    if found is None:
-        return
-    i, j = np.array([found[0]]), np.array([found[1]])
-    t, u, _ = _crossing(a, step, length, i, j, tol)
-    point = a[i[0], 0] + t[0] * step[i[0]]
-    there_i, there_j = b[i[0], 0] + t[0] * target[i[0]], b[j[0], 0] + u[0] * target[j[0]]
-    raise ValueError(
-        f"src_segments[{i[0]}] {a[i[0]].tolist()} and src_segments[{j[0]}] "
-        f"{a[j[0]].tolist()} cross at {point.tolist()}, where their targets are "
-        f"{there_i.tolist()} and {there_j.tolist()}: f cannot take both; make their "
-        "targets meet at the crossing"
-    )
-
-
-def _crossing(
-    a: np.ndarray, step: np.ndarray, length: np.ndarray, i: np.ndarray, j: np.ndarray, tol: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(t, u, crossing) of the pairs of source segments (i, j): the parameters along each of
-    their lines' crossing, and whether it lies inside both, farther than ``tol`` from their
-    ends (an end on the other segment is :func:`_first_on_segment`'s; parallel ones meet
-    at ends, or overlap where ends lie on each other)."""
-    r, s = step[i], step[j]
-    d = a[j, 0] - a[i, 0]
-    denominator = r[:, 0] * s[:, 1] - r[:, 1] * s[:, 0]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = (d[:, 0] * s[:, 1] - d[:, 1] * s[:, 0]) / denominator
-        u = (d[:, 0] * r[:, 1] - d[:, 1] * r[:, 0]) / denominator
-        margin_i, margin_j = tol / length[i], tol / length[j]
-        inside = (t > margin_i) & (t < 1.0 - margin_i) & (u > margin_j) & (u < 1.0 - margin_j)
-    return t, u, inside & (denominator != 0.0)
 
 
 def polyline_segments(points: object) -> np.ndarray:

@@ -117,3 +117,47 @@ def test_2d_far_from_a_dense_crowd(bins):
     error = np.abs(found - reference.mls(src, dst, points, **options)[0]).max(axis=1)
     assert np.percentile(error, 99) <= 0.03, np.percentile(error, 99)
     assert error.max() <= 0.2, error.max()
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("bins", [False, True])
+def test_the_nearest_pair_decides_m_to_the_edge_of_the_coordinate_range(dim, bins):
+    """Points up to 1e6 px out, R = 10 px: the offset g - |u|^2 taken from the two squares
+    (each ~1e12, rounded by ~6e4) lost every weight but the nearest's, and f fell back to a
+    translation up to 3.8e5 px off; the nearest apart's own excess keeps it, so f is the fit
+    of the nearest handles there, to float32's ~1e-7 of the coordinates."""
+    if bins and dim == 3:
+        pytest.skip("the spatial bins are 2D's")
+    rng = np.random.default_rng(5)
+    src = rng.uniform(0, 64, (5 + dim, dim))
+    dst = src + rng.normal(0, 3, src.shape)
+    directions = rng.normal(size=(60, dim))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    points = directions * rng.uniform(1e5, 1e6, (60, 1))
+    options = {"transform": "similarity", "weight": "gaussian", "radius": 10.0}
+    extra = {"bins": bins} if dim == 2 else {}
+    with glmls.MLS(src, dst, **options, **extra) as m:
+        found = m(points)
+        matrices, _ = m.matrices(points)
+    expected, expected_m, _ = reference.mls(src, dst, points, **options)
+    error = np.abs(found - expected).max(axis=1)
+    assert (error <= 4e-7 * np.abs(points).max(axis=1)).all(), error.max()
+    assert np.abs(matrices - expected_m).max() < 1e-4
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("radius", [1e-4, 1.1e-3])
+def test_a_tiny_radius_keeps_the_nearest_pairs_fit(dim, radius):
+    """R of 1e-4 px among handles tens of pixels apart: the nearest apart's excess (0 by
+    definition) came out as float32's rounding of its dot products, some 1e-5 px², which
+    divided by R^2 took its weight to e^-2000 at one point in three: M = I there, f up to
+    7 px off; an excess within its terms' rounding is 0 now."""
+    rng = np.random.default_rng(6)
+    src = rng.uniform(0, 64, (5 + dim, dim))
+    dst = src + rng.normal(0, 3, src.shape)
+    points = rng.uniform(0, 64, (3000, dim))
+    options = {"transform": "similarity", "weight": "gaussian", "radius": radius}
+    with glmls.MLS(src, dst, **options) as m:
+        found = m(points)
+    expected = reference.mls(src, dst, points, **options)[0]
+    assert np.abs(found - expected).max() < 1e-3

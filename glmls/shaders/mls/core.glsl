@@ -112,6 +112,10 @@ struct MLSNearest {
 #if MLS_SEGMENTS
     bool segment;   // it is a point of a segment handle (mls/segments.glsl)
 #endif
+#if MLS_REACH_GAUSSIAN
+    vec2 pnext;     // the handle (or segment point) at d2next: the gaussian's offset is its
+                    // excess about the nearest (mls_begin), exact where d2next itself is not
+#endif
 };
 
 // The squared snapping distance of the nearest handle n.h: a point's, or a segment's.
@@ -145,11 +149,18 @@ MLSNearest mls_nearest_begin() {
 #if MLS_SEGMENTS
     n.segment = false;
 #endif
+#if MLS_REACH_GAUSSIAN
+    n.pnext = vec2(0.0);
+#endif
     return n;
 }
 
-// The least squared distance above the nearest's, with d2 seen (before d2min takes it).
-void mls_nearest_next(inout MLSNearest n, float d2) {
+// The least squared distance above the nearest's, with d2 seen at p (before d2min and the
+// nearest take it): at the nearest apart from the nearest one's place.
+void mls_nearest_next(inout MLSNearest n, float d2, vec2 p) {
+#if MLS_REACH_GAUSSIAN
+    n.pnext = d2 < n.d2min ? n.h.xy : (d2 > n.d2min && d2 < n.d2next ? p : n.pnext);
+#endif
 #if MLS_TRACK_NEXT
     mls_track_next(n.d2next, n.d2min, d2);
 #endif
@@ -160,11 +171,11 @@ void mls_nearest_add(inout MLSNearest n, vec4 h, vec2 v, bool use) {
     vec2 dp = h.xy - v;
     float d2 = use ? dot(dp, dp) : 3.0e38;
     bool nearer = d2 < n.d2min;
+    mls_nearest_next(n, d2, h.xy);
     n.h = nearer ? h : n.h;
 #if MLS_SEGMENTS
     n.segment = nearer ? false : n.segment;
 #endif
-    mls_nearest_next(n, d2);
     n.d2min = min(n.d2min, d2);
     n.d2far = min(n.d2far, d2 > u_hit2 ? d2 : 3.0e38);
 }
@@ -232,8 +243,14 @@ MLSAccum mls_begin(vec2 v, MLSNearest n) {
 #endif
 #if MLS_REACH_GAUSSIAN
     vec2 u = v - a.o.xy;
-    a.g_o = a.g - dot(u, u);
     a.twice_u = 2.0 * u;
+    // g - |u|^2: where g is the nearest apart's d2, its excess about o as each handle's is
+    // taken (mls_handle_weight), so that its weight is 1 to float32's rounding of P.(P - 2u);
+    // g - |u|^2 from the two squares loses to rounding what far out (|u| ~ 3,000 R and
+    // beyond) or at a tiny radius is larger than R^2 itself, and every weight under/overflowed
+    vec2 P_next = n.pnext - a.o.xy;
+    bool next = n.d2next < 3.0e38 && a.g == n.d2next;
+    a.g_o = next ? dot(P_next, P_next - a.twice_u) : a.g - dot(u, u);
 #endif
     a.W = 0.0;
     a.P = vec2(0.0);
@@ -266,7 +283,8 @@ float mls_handle_weight(MLSAccum a, vec2 p, float d2) {
     // the rounding of u and of g - |u|^2 is the same for every handle (f at a point within
     // float32's spacing of v, a factor common to the weights)
     vec2 P = p - a.o.xy;
-    float w = mls_weight_excess(dot(P, P - a.twice_u) - a.g_o, seen, a.inv_m);
+    vec2 Q = P - a.twice_u;
+    float w = mls_weight_excess(mls_excess(dot(P, Q), dot(abs(P), abs(Q)), a.g_o), seen, a.inv_m);
 #else
     float w = mls_weight(seen, a.g, a.inv_m, a.sigma);
 #endif

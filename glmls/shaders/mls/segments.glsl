@@ -89,9 +89,9 @@ void mls_nearest_add_segment(inout MLSNearest n, MLSSegment seg, vec2 v) {
     float t = view.xc - view.x0;   // arc length from a
     vec4 h = vec4(seg.a + t * seg.u, seg.c + t * seg.g);
     bool nearer = d2 < n.d2min;
+    mls_nearest_next(n, d2, h.xy);
     n.h = nearer ? h : n.h;
     n.segment = nearer ? true : n.segment;
-    mls_nearest_next(n, d2);
     n.d2min = min(n.d2min, d2);
     n.d2far = min(n.d2far, d2 > u_hit2_segments ? d2 : 3.0e38);
 }
@@ -257,7 +257,9 @@ vec3 mls_segment_integrals(MLSAccum a, MLSSegment seg, MLSSegmentView view) {
             float seen = max(view.h2 + x * x, near2);
 #if MLS_SEGMENT_SUPPORT == 2
             vec2 P = start + (from_start + dx) * seg.u;
-            float raw = mls_weight_excess(dot(P, P - a.twice_u) - a.g_o, seen, a.inv_m);
+            vec2 Q = P - a.twice_u;
+            float excess = mls_excess(dot(P, Q), dot(abs(P), abs(Q)), a.g_o);
+            float raw = mls_weight_excess(excess, seen, a.inv_m);
 #else
             float raw = mls_weight(seen, a.g, a.inv_m, sigma);
 #endif

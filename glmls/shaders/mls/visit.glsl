@@ -35,9 +35,9 @@
 #else
 #define MLS_EACH(F) MLS_BLOCKS(F, n)
 #endif
-#define MLS_NEAR(i, use) mls_nearest_index(d2min, d2next, nearest, v, mls_handle(i).xy, i, use);
+#define MLS_NEAR(i, use) mls_nearest_index(d2min, d2next, nearest, next, v, mls_handle(i).xy, i, use);
 #define MLS_ACC(i, use) mls_accumulate(a, mls_handle(i), use);
-#define MLS_NEAR_PAIR(i, use) mls_nearest_pair(d2min, d2next, nearest, v0, v1, i, use);
+#define MLS_NEAR_PAIR(i, use) mls_nearest_pair(d2min, d2next, nearest, next, v0, v1, i, use);
 #define MLS_ACC_PAIR(i, use) mls_accumulate_pair(a0, a1, i, use);
 #define MLS_NEAR_ADD(i, use) mls_nearest_add(near, mls_handle(i), v, use);
 #define MLS_FAR(i, use) mls_nearest_far(near.d2far, v, i, use);
@@ -212,11 +212,14 @@ bool mls_loops_whole() {
 // snapping distance is looked for in a second pass only where v snaps, which a work group
 // away from the handles skips. ``use``: false for an empty slot (MLS_UNROLL).
 // With the gaussian it tracks the least squared distance above the nearest's too (d2next,
-// see mls_gaussian_offset).
-void mls_nearest_index(inout float d2min, inout float d2next, inout int nearest, vec2 v, vec2 p,
-                       int i, bool use) {
+// see mls_gaussian_offset), and that handle's index (next: MLSNearest's pnext).
+void mls_nearest_index(inout float d2min, inout float d2next, inout int nearest, inout int next,
+                       vec2 v, vec2 p, int i, bool use) {
     vec2 dp = p - v;
     float d2 = use ? dot(dp, dp) : 3.0e38;
+#if MLS_REACH_GAUSSIAN
+    next = d2 < d2min ? nearest : (d2 > d2min && d2 < d2next ? i : next);
+#endif
     nearest = d2 < d2min ? i : nearest;
     mls_track_next(d2next, d2min, d2);
     d2min = min(d2min, d2);
@@ -229,11 +232,11 @@ void mls_nearest_far(inout float d2far, vec2 v, int i, bool use) {
 }
 
 // Two points' steps with the handle read once (mls_eval_pair).
-void mls_nearest_pair(inout vec2 d2min, inout vec2 d2next, inout ivec2 nearest, vec2 v0, vec2 v1,
-                      int i, bool use) {
+void mls_nearest_pair(inout vec2 d2min, inout vec2 d2next, inout ivec2 nearest, inout ivec2 next,
+                      vec2 v0, vec2 v1, int i, bool use) {
     vec2 p = mls_handle(i).xy;
-    mls_nearest_index(d2min.x, d2next.x, nearest.x, v0, p, i, use);
-    mls_nearest_index(d2min.y, d2next.y, nearest.y, v1, p, i, use);
+    mls_nearest_index(d2min.x, d2next.x, nearest.x, next.x, v0, p, i, use);
+    mls_nearest_index(d2min.y, d2next.y, nearest.y, next.y, v1, p, i, use);
 }
 
 void mls_accumulate_pair(inout MLSAccum a0, inout MLSAccum a1, int i, bool use) {
@@ -256,11 +259,14 @@ void mls_accumulate_all(inout MLSAccum a) {
 #if !MLS_BINS
 // The plain path's record of the nearest handle once its index is known, with the nearest
 // beyond the snapping distance where v snaps.
-MLSNearest mls_nearest_found(float d2min, float d2next, int nearest, vec2 v, int n) {
+MLSNearest mls_nearest_found(float d2min, float d2next, int nearest, int next, vec2 v, int n) {
     MLSNearest near = mls_nearest_begin();
     near.d2min = d2min;
 #if MLS_TRACK_NEXT
     near.d2next = d2next;
+#endif
+#if MLS_REACH_GAUSSIAN
+    near.pnext = n > 0 ? mls_handle(next).xy : vec2(0.0);
 #endif
     near.h = n > 0 ? mls_handle(nearest) : vec4(0.0);
 #if MLS_SEGMENTS
@@ -380,8 +386,9 @@ MLSResult mls_eval(vec2 v) {
     float d2min = 3.0e38;
     float d2next = 3.0e38;
     int nearest = 0;
+    int next = 0;
     MLS_EACH(MLS_NEAR)
-    MLSAccum a = mls_begin(v, mls_nearest_found(d2min, d2next, nearest, v, n));
+    MLSAccum a = mls_begin(v, mls_nearest_found(d2min, d2next, nearest, next, v, n));
     MLS_EACH(MLS_ACC)
     return mls_end(a);
 #endif
@@ -400,9 +407,10 @@ void mls_eval_pair(vec2 v0, vec2 v1, out MLSResult r0, out MLSResult r1) {
     vec2 d2min = vec2(3.0e38);
     vec2 d2next = vec2(3.0e38);
     ivec2 nearest = ivec2(0);
+    ivec2 next = ivec2(0);
     MLS_EACH(MLS_NEAR_PAIR)
-    MLSAccum a0 = mls_begin(v0, mls_nearest_found(d2min.x, d2next.x, nearest.x, v0, n));
-    MLSAccum a1 = mls_begin(v1, mls_nearest_found(d2min.y, d2next.y, nearest.y, v1, n));
+    MLSAccum a0 = mls_begin(v0, mls_nearest_found(d2min.x, d2next.x, nearest.x, next.x, v0, n));
+    MLSAccum a1 = mls_begin(v1, mls_nearest_found(d2min.y, d2next.y, nearest.y, next.y, v1, n));
     MLS_EACH(MLS_ACC_PAIR)
     r0 = mls_end(a0);
     r1 = mls_end(a1);

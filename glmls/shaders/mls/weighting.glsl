@@ -135,6 +135,18 @@ float mls_interpolated_slope(float raw, float slope, float d2, float inv_m) {
 float mls_weight_excess(float excess, float seen, float inv_m) {
     return mls_interpolated(mls_gaussian_excess(excess), seen, inv_m);
 }
+
+// The excess P.Q - g_o of a handle at P about the nearest (Q = P - 2u), 0 where it lies
+// within float32's rounding of its terms (MLS_EXCESS_ULPS steps of |P|.|Q| + |g_o|): the
+// nearest apart's, whose excess g_o is by definition, is 0 however the compiler fused the
+// two dot products, where at a tiny radius (R^2 ~ 1e-8 px^2) their rounding, divided by R^2,
+// took its weight to e^-2000 and f to a bare translation. ``pq`` = P.Q, ``scale`` =
+// |P|.|Q| taken componentwise.
+#define MLS_EXCESS_ULPS 4.0
+float mls_excess(float pq, float scale, float g_o) {
+    float x = pq - g_o;
+    return abs(x) <= MLS_EXCESS_ULPS * 1.1920929e-7 * (scale + abs(g_o)) ? 0.0 : x;
+}
 #endif
 
 // The radius weights at the edge of their reach (MLS_WEIGHT_FUNCTION64 is defined for a

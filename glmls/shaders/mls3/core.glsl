@@ -85,11 +85,14 @@ struct MLS3Accum {
 };
 
 // With the gaussian it tracks the least squared distance above the nearest's too (d2next,
-// see mls_gaussian_offset).
-void mls3_nearest(inout float d2min, inout float d2next, inout int nearest, vec3 v, int i,
-                  bool use) {
+// see mls_gaussian_offset), and that handle's index (next, for mls3_begin's offset).
+void mls3_nearest(inout float d2min, inout float d2next, inout int nearest, inout int next,
+                  vec3 v, int i, bool use) {
     vec3 dp = mls3_p(i) - v;
     float d2 = use ? dot(dp, dp) : 3.0e38;
+#if MLS_REACH_GAUSSIAN
+    next = d2 < d2min ? nearest : (d2 > d2min && d2 < d2next ? i : next);
+#endif
     nearest = d2 < d2min ? i : nearest;
     mls_track_next(d2next, d2min, d2);
     d2min = min(d2min, d2);
@@ -102,7 +105,7 @@ void mls3_far(inout float d2far, vec3 v, int i, bool use) {
 }
 #define MLS3_FAR(i, use) mls3_far(d2far, v, i, use);
 
-MLS3Accum mls3_begin(vec3 v, float d2min, float d2next, int nearest, int n) {
+MLS3Accum mls3_begin(vec3 v, float d2min, float d2next, int nearest, int next, int n) {
     MLS3Accum a;
     a.v = v;
     a.hit = u_snap && d2min <= u_hit2;
@@ -136,8 +139,12 @@ MLS3Accum mls3_begin(vec3 v, float d2min, float d2next, int nearest, int n) {
 #endif
 #if MLS_REACH_GAUSSIAN
     vec3 u = v - a.op;
-    a.g_o = a.g - dot(u, u);
     a.twice_u = 2.0 * u;
+    // the nearest apart's excess about the nearest, as mls3_excess takes each handle's
+    // (mls/core.glsl's mls_begin: g - |u|^2 loses more than R^2 far out)
+    vec3 P_next = (n > 0 ? mls3_p(next) : vec3(0.0)) - a.op;
+    bool apart = d2next < 3.0e38 && a.g == d2next;
+    a.g_o = apart ? dot(P_next, P_next - a.twice_u) : a.g - dot(u, u);
 #endif
     a.W = 0.0;
     a.P = vec3(0.0);
@@ -179,7 +186,8 @@ float mls3_seen(MLS3Accum a, float d2, bool use, out bool none) {
 // takes it
 float mls3_excess(MLS3Accum a, vec3 p) {
     vec3 P = p - a.op;
-    return dot(P, P - a.twice_u) - a.g_o;
+    vec3 Q = P - a.twice_u;
+    return mls_excess(dot(P, Q), dot(abs(P), abs(Q)), a.g_o);
 }
 #endif
 
@@ -388,7 +396,7 @@ MLS3Result mls3_finish(MLS3Accum a) {
 #else
 #define MLS3_EACH(F) MLS_BLOCKS(F, n)
 #endif
-#define MLS3_NEAR(i, use) mls3_nearest(d2min, d2next, nearest, v, i, use);
+#define MLS3_NEAR(i, use) mls3_nearest(d2min, d2next, nearest, next, v, i, use);
 #define MLS3_ACC(i, use) mls3_accumulate(a, i, use);
 
 MLS3Result mls3_eval(vec3 v) {
@@ -396,8 +404,9 @@ MLS3Result mls3_eval(vec3 v) {
     float d2min = 3.0e38;
     float d2next = 3.0e38;
     int nearest = 0;
+    int next = 0;
     MLS3_EACH(MLS3_NEAR)
-    MLS3Accum a = mls3_begin(v, d2min, d2next, nearest, n);
+    MLS3Accum a = mls3_begin(v, d2min, d2next, nearest, next, n);
     MLS3_EACH(MLS3_ACC)
     return mls3_finish(a);
 }
@@ -720,8 +729,9 @@ MLS3Result mls3_eval_jacobian(vec3 v, float h, out mat3 J) {
     float d2min = 3.0e38;
     float d2next = 3.0e38;
     int nearest = 0;
+    int next = 0;
     MLS3_EACH(MLS3_NEAR)
-    MLS3Accum a = mls3_begin(v, d2min, d2next, nearest, n);
+    MLS3Accum a = mls3_begin(v, d2min, d2next, nearest, next, n);
     MLS3Accum zero = a;   // no moments yet
     MLS3_EACH(MLS3_ACC)
     MLS3Result r = mls3_finish(a);
