@@ -415,9 +415,11 @@ def tick_labels(values: Sequence[float]) -> list[str]:
     """The labels of ticks at ``values`` (increasing): :func:`format_number`'s, with as many
     more digits (up to :data:`MAX_TICK_DIGITS`) as neighbouring ticks need to read apart
     (0.333 to 0.334 in five ticks: 0.3330, 0.3333, ...)."""
+    numbers = [float(v) for v in values]
+    distinct = [k for k in range(1, len(numbers)) if numbers[k] != numbers[k - 1]]
     for digits in range(3, MAX_TICK_DIGITS + 1):
-        labels = [format_number(float(v), digits) for v in values]
-        if all(a != b for a, b, x, y in zip(labels, labels[1:], values, values[1:]) if x != y):
+        labels = [format_number(v, digits) for v in numbers]
+        if all(labels[k] != labels[k - 1] for k in distinct):
             break
     return labels
 

@@ -19,6 +19,7 @@ from numpy.testing import assert_array_equal
 
 import glmls
 from glmls.gl.context import create_headless, get_context
+from glmls.gl.locks import ContextLock
 
 SRC = np.array([[10.0, 10.0], [50.0, 12.0], [30.0, 40.0], [12.0, 44.0]])
 DST = np.array([[14.0, 8.0], [50.0, 12.0], [33.0, 36.0], [12.0, 44.0]])
@@ -233,6 +234,66 @@ def test_warp_from_other_threads_and_from_several_at_once(gl):
         outputs = list(pool.map(lambda seed: glmls.warp(image(seed), SRC, DST), range(6)))
     for seed, out in enumerate(outputs):
         assert_array_equal(out, expected[seed])
+
+
+def test_a_thread_calling_back_to_back_lets_the_others_take_their_turn(gl):
+    """One thread warps in a tight loop: another thread's single call, and the context's
+    release(), are served within a few of its calls. The lock, taken again by its holder
+    before the woken waiter ran, kept them waiting for as long as the loop went on."""
+    context = create_headless()
+    stop, calls = threading.Event(), []
+    with glmls.MLS(SRC, DST, shape=(48, 56), ctx=context) as m:
+
+        def loop():
+            started = time.monotonic()
+            while not stop.is_set() and time.monotonic() - started < 60:
+                m.warp(image(0))
+                calls.append(time.monotonic())
+
+        worker = threading.Thread(target=loop, daemon=True)
+        worker.start()
+        while len(calls) < 5:
+            time.sleep(0.01)
+        out = glmls.warp(image(1), SRC, DST, ctx=context)  # waits its turn behind the loop
+        served = len(calls)
+        stop.set()
+        worker.join(60)
+    assert not worker.is_alive() and len(calls) - served <= 2
+    assert_array_equal(out, glmls.warp(image(1), SRC, DST, ctx=gl))
+    context.release()
+
+
+def test_the_context_lock_serves_its_waiters_in_turn():
+    """A release hands the lock to the longest waiting thread: the holder that takes it
+    again comes after them; its own calls nest."""
+    lock = ContextLock()
+    order = []
+
+    def take(name):
+        with lock:
+            order.append(name)
+
+    def wait_for(count):
+        deadline = time.monotonic() + 30
+        while lock.waiting < count and time.monotonic() < deadline:
+            time.sleep(0.001)
+
+    lock.acquire()
+    lock.acquire()
+    assert lock.count() == 2
+    threads = [threading.Thread(target=take, args=(name,)) for name in "ab"]
+    for n, thread in enumerate(threads, 1):
+        thread.start()
+        wait_for(n)  # a in line first, then b
+    lock.release()
+    assert lock.count() == 1 and lock.waiting == 2  # nested: still held
+    lock.release()  # to a
+    lock.acquire()  # after b
+    order.append("holder")
+    lock.release()
+    for thread in threads:
+        thread.join(10)
+    assert order == ["a", "b", "holder"] and lock.count() == 0 and lock.waiting == 0
 
 
 def test_an_mls_made_on_one_thread_works_on_another(gl):
