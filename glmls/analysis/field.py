@@ -10,6 +10,7 @@ from typing import Protocol
 import numpy as np
 
 from ..core.config import MLSConfig
+from ..core.handles import Scaling
 from ..core.handleset import HandleSet
 from ..core.mesh import as_shape
 from ..gl.context import forked_from_gl
@@ -117,6 +118,20 @@ def image_deformation(m: object, shape: Sequence[int]) -> Iterator[object]:
     segments = {"src_segments": m.src_segments, "dst_segments": m.dst_segments}
     with MLS.from_config(m.src, m.dst, fixed, shape=size, ctx=ctx, **segments) as warped:
         yield warped
+
+
+def frame_centre(m: object) -> np.ndarray:
+    """(2,) float64: the centre of the GPU's frame of a 2D :class:`glmls.MLS` (its
+    :attr:`~glmls.MLS.scaling`'s), about which its float32 holds f's points: their rounding,
+    which the analyses' flatness tolerances count, grows with the distance from it, not from
+    the origin. Zeros for other functions (float64 about the origin). In a process forked
+    from one that used GL, the centre of the box of the sources and the image."""
+    if not isinstance(m, MLS) or m.dimension != 2:
+        return np.zeros(2)
+    if not forked_from_gl():
+        return np.array(m.scaling.center, dtype=np.float64)
+    sources = HandleSet.validate(m.src, m.dst, m.src_segments, m.dst_segments).source_points()
+    return np.array(Scaling.fit(sources, sources, m.shape).center, dtype=np.float64)
 
 
 def target_offset(m: object) -> np.ndarray:

@@ -41,7 +41,7 @@ from .triangles import (
     qhull_simplices,
     unit_scaled,
 )
-from .volume_field import precision, target_offset
+from .volume_field import frame_centre, precision, target_offset
 from .volume_lattice import as_points3, check_three_d, flat_triples
 
 __all__ = [
@@ -436,9 +436,11 @@ def tetrahedron_errors(
     deformed = deformed_points(m, r)
     kept = simplices[~sliver]
     # the errors do not change with a translation of f(r); less the GPU's offset of far
-    # targets, f(r) has the rounding of a map near its sources, which the flatness counts
+    # targets, f(r) has the rounding of a map near its sources, which the flatness counts,
+    # both about the centre of the GPU's frame, from which that rounding grows
+    centre = frame_centre(m)
     distance, errors, inverted = tetrahedron_errors_from_points(
-        *unit_scaled(r, deformed - target_offset(m)),
+        *unit_scaled(r - centre, deformed - target_offset(m) - centre),
         kept,
         angle=measure,
         eps=eps,

@@ -25,7 +25,7 @@ import numpy as np
 from ..core.config import check_choice, check_real
 from ..core.handles import check_coordinates, check_reference_points
 from ..mls import MLS
-from .field import target_offset
+from .field import frame_centre, target_offset
 from .stats import error_stats
 from .volume_lattice import flat_areas, real_values
 
@@ -330,11 +330,13 @@ def triangle_errors(
     r, simplices = delaunay(reference_points)
     deformed = deformed_points(m, r)
     # far targets: the errors of f - t (a whole-pixel t; translations change none of them),
-    # whose float32 rounding, which the flatness counts, is that of a map near its sources
-    near_deformed = deformed - target_offset(m)
+    # whose float32 rounding, which the flatness counts, is that of a map near its sources;
+    # both about the centre of the GPU's frame, from which that rounding grows
+    centre = frame_centre(m)
+    near_deformed = deformed - target_offset(m) - centre
     rounding = np.finfo(np.float32 if isinstance(m, MLS) else np.float64).eps  # the GPU's
     distance, errors, flipped = triangle_errors_from_points(
-        *unit_scaled(r, near_deformed),
+        *unit_scaled(r - centre, near_deformed),
         simplices,
         eps=eps,
         angle=measure,

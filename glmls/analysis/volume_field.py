@@ -18,7 +18,13 @@ import numpy as np
 from .. import reference
 from ..core.config import MLSConfig, check_result_bytes, config_or_options
 from ..core.handles import point_rows
-from ..core.handles3 import as_volume_spacing, checked_extent, fit_offset3, volume_extent
+from ..core.handles3 import (
+    as_volume_spacing,
+    checked_extent,
+    fit_offset3,
+    fit_scaling3,
+    volume_extent,
+)
 from ..engine.kernel3 import MLSKernel3
 from ..engine.passes3 import evaluate_points3
 from ..gl.context import forked_from_gl
@@ -247,6 +253,22 @@ def precision(m: object) -> float:
     other functions."""
     gpu = isinstance(m, KernelDeformation) or (isinstance(m, MLS) and m.dimension == 3)
     return float(np.finfo(np.float32 if gpu else np.float64).eps)
+
+
+def frame_centre(m: object) -> np.ndarray:
+    """(3,) float64: the centre of the GPU's frame of a 3D :class:`glmls.MLS` (or the
+    kernel of a volume's warp), about which its float32 holds f's points: their rounding,
+    which the analyses' flatness tolerances count, grows with the distance from it, not from
+    the origin. Zeros for the float64 reference and other functions. In a process forked
+    from one that used GL, the centre of the box of the handles and the volume
+    (:func:`~glmls.core.handles3.fit_scaling3`)."""
+    if isinstance(m, KernelDeformation):
+        return np.array(m._kernel.scaling.center, dtype=np.float64)
+    if not isinstance(m, MLS) or m.dimension != 3:
+        return np.zeros(3)
+    if not forked_from_gl():
+        return np.array(m.scaling.center, dtype=np.float64)
+    return np.array(fit_scaling3(m.src, m.dst, m.shape, m.spacing).center, dtype=np.float64)
 
 
 def target_offset(m: object) -> np.ndarray:

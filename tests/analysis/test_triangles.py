@@ -269,6 +269,24 @@ def test_a_reference_sliver_folds_only_where_f_clearly_turns_it_over(gl, apart):
     assert slivers.sum() == 2 and mirrored.flipped[~slivers].all()
 
 
+@pytest.mark.parametrize("offset", [0.0, 1e5, 5e5, 9e5])
+def test_far_from_the_origin_the_gpus_folds_are_the_float64_ones(gl, offset):
+    """Handles and points 5e5 px out: the GPU holds them about its frame's centre, where
+    f(r)'s float32 rounding is that of a map at the origin; taken about the origin the
+    flatness tolerance flagged a third of the healthy triangles."""
+    rng = np.random.default_rng(3)
+    src = offset + rng.uniform(0, 100, (10, 2))
+    dst = src + rng.normal(0, 3, src.shape)
+    points = offset + rng.uniform(0, 100, (40, 2))
+    with glmls.MLS(src, dst, transform="similarity", ctx=gl) as m:
+        found = glmls.analysis.triangle_errors(m, points)
+    expected = glmls.analysis.triangle_errors(
+        lambda v: reference.mls(src, dst, v, transform="similarity")[0], points
+    )
+    assert_allclose(found.deformed_points, expected.deformed_points, atol=1e-7 * (offset + 100))
+    assert (found.flipped == expected.flipped).all()
+
+
 def test_a_thin_triangle_kept_whole_is_no_fold(gl):
     """A thin reference triangle (0.2 px high, 60 px long, at x ~ 500) that f leaves as it is:
     its orientation is thousands of float32 steps clear of rounding, and f does not stretch
