@@ -138,7 +138,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument(
         "--cases", default="all", help=f"comma-separated among {', '.join(CASES)}, or all"
     )
-    parser.add_argument("--profile", default=None, help="a case to profile (cProfile)")
+    parser.add_argument(
+        "--profile", default=None, choices=list(CASES), help="a case to profile (cProfile)"
+    )
     parser.add_argument("--top", type=int, default=15, help="profiled functions shown")
     args = parser.parse_args(argv)
     names = list(CASES) if args.cases == "all" else args.cases.split(",")

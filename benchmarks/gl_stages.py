@@ -117,9 +117,11 @@ def volume_workload(args):
     dst = src + rng.normal(0, size / 40, src.shape)
     m = glmls.MLS(src, dst, transform="rigid", weight="idw")
     interpolation = "linear" if args.method == "backward" else "nearest"
-    options = {"method": args.method, "grid": args.grid, "interpolation": interpolation}
+    grid = 1 if args.grid is None else args.grid
+    options = {"method": args.method, "grid": grid, "interpolation": interpolation}
     m.warp(volume[:16, :16, :16], **options)
-    return lambda: m.warp(volume, **options)
+    settings = {"volume": (size,) * 3, "handles": 64, "transform": "rigid", **options}
+    return (lambda: m.warp(volume, **options)), settings
 
 
 def batch_workload(args):
@@ -136,11 +138,14 @@ def batch_workload(args):
     if args.keypoints:
         labels["keypoints"] = rng.uniform(0, size - 1, (n, 3, 2))
         labels["masks"] = rng.integers(0, 4, (n, size, size), dtype=np.uint8)
-    options = {"grid": 4, "interpolation": args.interpolation, "border": args.border}
+    grid = 4 if args.grid is None else args.grid
+    options = {"grid": grid, "interpolation": args.interpolation, "border": args.border}
     glmls.warp_batch(
         images[:2], src[:2], dst[:2], **options, **{k: v[:2] for k, v in labels.items()}
     )
-    return lambda: glmls.warp_batch(images, src, dst, **options, **labels)
+    settings = {"n": n, "size": (size, size), "handles": 16, **options}
+    settings["labels"] = "3 keypoints and a mask" if args.keypoints else "none"
+    return (lambda: glmls.warp_batch(images, src, dst, **options, **labels)), settings
 
 
 def augment_workload(args):
@@ -155,7 +160,10 @@ def augment_workload(args):
         labels["masks"] = rng.integers(0, 4, (args.n, height, width), dtype=np.uint8)
     augment = Augment(args.preset, seed=0)
     augment(images[:2], **{k: v[:2] for k, v in labels.items()})
-    return lambda: augment(images, **labels)
+    settings = {"preset": args.preset, "n": args.n, "size": (height, width)}
+    settings["warp"] = augment.warp_options  # the preset's own: grid, sampling, border
+    settings["labels"] = "20 keypoints and a mask" if labels else "none"
+    return (lambda: augment(images, **labels)), settings
 
 
 def torus(n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -184,7 +192,9 @@ def mesh_workload(args):
     m = glmls.MLS(src, dst, transform="rigid", weight="idw")
     m.deform(glmls.Mesh(vertices[:100], faces[:100] % 100))
     mesh = glmls.Mesh(vertices, faces)
-    return lambda: m.deform(mesh)
+    settings = {"surface": args.surface, "vertices": len(vertices), "faces": len(faces)}
+    settings.update(handles=64, transform="rigid")
+    return (lambda: m.deform(mesh)), settings
 
 
 def main() -> None:
@@ -192,7 +202,12 @@ def main() -> None:
     parser.add_argument("workload", choices=("volume", "batch", "augment", "mesh"))
     parser.add_argument("--size", type=int, default=None)
     parser.add_argument("--method", default="quads", choices=("quads", "backward"))
-    parser.add_argument("--grid", type=int, default=1)
+    parser.add_argument(
+        "--grid",
+        type=int,
+        default=None,
+        help="volume: 1, batch: 4 unless given (augment: its preset's)",
+    )
     parser.add_argument("--n", type=int, default=256)
     parser.add_argument(
         "--keypoints",
@@ -227,7 +242,7 @@ def main() -> None:
         "augment": augment_workload,
         "mesh": mesh_workload,
     }
-    step = workloads[args.workload](args)
+    step, settings = workloads[args.workload](args)
     step()
     start = time.perf_counter()
     step()
@@ -243,7 +258,7 @@ def main() -> None:
     step()
     profile.disable()
     staged, staged_cpu = time.perf_counter() - start, time.process_time() - cpu
-    print(f"{args.workload}: {vars(args)}")
+    print(f"{args.workload}: {settings}")
     print(
         f"normal run {normal * 1e3:9.1f} ms; a finish after each stage {staged * 1e3:9.1f} ms "
         f"({staged_cpu * 1e3:.1f} ms CPU)"
