@@ -161,3 +161,33 @@ def test_a_tiny_radius_keeps_the_nearest_pairs_fit(dim, radius):
         found = m(points)
     expected = reference.mls(src, dst, points, **options)[0]
     assert np.abs(found - expected).max() < 1e-3
+
+
+@pytest.mark.parametrize("radius", [1e-4, 1e-2])
+def test_a_tie_for_the_nearest_handle_keeps_both(radius):
+    """Points on the bisector of two handles (far out), and at the middle of two of three
+    (2D and 3D): float32 may round either of the pair nearer, and the offset about it, a
+    rounding of zero, came out negative as often as not, weighing the nearest e^-(|g_o| /
+    R^2) = 0: M = I, f up to 1.4e4 px off. g >= |u|^2 holds now, and an excess within the
+    rounding of its operands (Q = P - 2u cancels at the middle) is 0."""
+    src = np.array([[174.0, 51.0], [199.0, 9.0]])
+    dst = np.array([[169.653, 46.349], [202.635, 8.793]])
+    along = np.array([-8e4, -3e3, -300.0, 3.0, 100.0, 3e3, 1e4, 3e4, 8e4])
+    bisector = src.mean(axis=0) + along[:, None] * np.array([42.0, 25.0]) / np.hypot(42, 25)
+    options = {"transform": "similarity", "weight": "gaussian", "radius": radius}
+    with glmls.MLS(src, dst, **options) as m:
+        found = m(bisector)
+    error = np.abs(found - reference.mls(src, dst, bisector, **options)[0]).max(axis=1)
+    assert (error <= 1e-6 * np.maximum(np.abs(bisector).max(axis=1), 100.0)).all(), error
+    rng = np.random.default_rng(7)
+    for dim in (2, 3):
+        for _ in range(12):
+            src = rng.uniform(0, 48, (3, dim))
+            dst = src + rng.normal(0, 3, src.shape)
+            middle = (src[:1] + src[1:2]) / 2
+            if np.linalg.norm(src[2] - middle) < 1.5 * np.linalg.norm(src[0] - middle):
+                continue
+            with glmls.MLS(src, dst, **options) as m:
+                found = m(middle)
+            expected = reference.mls(src, dst, middle, **options)[0]
+            assert np.abs(found - expected).max() < 1e-3

@@ -248,9 +248,14 @@ MLSAccum mls_begin(vec2 v, MLSNearest n) {
     // taken (mls_handle_weight), so that its weight is 1 to float32's rounding of P.(P - 2u);
     // g - |u|^2 from the two squares loses to rounding what far out (|u| ~ 3,000 R and
     // beyond) or at a tiny radius is larger than R^2 itself, and every weight under/overflowed
+    // (g the nearest's own distance, where no handle lies farther apart or the nearest is
+    // a segment's point: 0 exactly, which its two squares, however fused, need not give)
     vec2 P_next = n.pnext - a.o.xy;
     bool next = n.d2next < 3.0e38 && a.g == n.d2next;
-    a.g_o = next ? dot(P_next, P_next - a.twice_u) : a.g - dot(u, u);
+    a.g_o = next ? dot(P_next, P_next - a.twice_u) : (a.g == n.d2min ? 0.0 : a.g - dot(u, u));
+    // g >= |u|^2 (the nearest's own excess, -g_o, is <= 0): a tie within float32's rounding
+    // (the middle of two handles) may round it below, which weighed the nearest e^-(|g_o|/R^2)
+    a.g_o = max(a.g_o, 0.0);
 #endif
     a.W = 0.0;
     a.P = vec2(0.0);
@@ -284,7 +289,8 @@ float mls_handle_weight(MLSAccum a, vec2 p, float d2) {
     // float32's spacing of v, a factor common to the weights)
     vec2 P = p - a.o.xy;
     vec2 Q = P - a.twice_u;
-    float w = mls_weight_excess(mls_excess(dot(P, Q), dot(abs(P), abs(Q)), a.g_o), seen, a.inv_m);
+    float scale = dot(abs(P), abs(P) + abs(a.twice_u));
+    float w = mls_weight_excess(mls_excess(dot(P, Q), scale, a.g_o), seen, a.inv_m);
 #else
     float w = mls_weight(seen, a.g, a.inv_m, a.sigma);
 #endif

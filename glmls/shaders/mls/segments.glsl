@@ -258,7 +258,8 @@ vec3 mls_segment_integrals(MLSAccum a, MLSSegment seg, MLSSegmentView view) {
 #if MLS_SEGMENT_SUPPORT == 2
             vec2 P = start + (from_start + dx) * seg.u;
             vec2 Q = P - a.twice_u;
-            float excess = mls_excess(dot(P, Q), dot(abs(P), abs(Q)), a.g_o);
+            float scale = dot(abs(P), abs(P) + abs(a.twice_u));
+            float excess = mls_excess(dot(P, Q), scale, a.g_o);
             float raw = mls_weight_excess(excess, seen, a.inv_m);
 #else
             float raw = mls_weight(seen, a.g, a.inv_m, sigma);

@@ -137,11 +137,12 @@ float mls_weight_excess(float excess, float seen, float inv_m) {
 }
 
 // The excess P.Q - g_o of a handle at P about the nearest (Q = P - 2u), 0 where it lies
-// within float32's rounding of its terms (MLS_EXCESS_ULPS steps of |P|.|Q| + |g_o|): the
-// nearest apart's, whose excess g_o is by definition, is 0 however the compiler fused the
-// two dot products, where at a tiny radius (R^2 ~ 1e-8 px^2) their rounding, divided by R^2,
-// took its weight to e^-2000 and f to a bare translation. ``pq`` = P.Q, ``scale`` =
-// |P|.|Q| taken componentwise.
+// within float32's rounding of its terms (MLS_EXCESS_ULPS steps of |P|.(|P| + |2u|) +
+// |g_o|: Q's own rounding is that of its operands, however much they cancel, as at the
+// middle of two handles): the nearest apart's, whose excess g_o is by definition, is 0
+// however the compiler fused the two dot products, where at a tiny radius (R^2 ~ 1e-8 px^2)
+// their rounding, divided by R^2, took its weight to e^-2000 and f to a bare translation.
+// ``pq`` = P.Q, ``scale`` = |P|.(|P| + |2u|) taken componentwise.
 #define MLS_EXCESS_ULPS 4.0
 float mls_excess(float pq, float scale, float g_o) {
     float x = pq - g_o;

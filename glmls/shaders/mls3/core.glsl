@@ -144,7 +144,8 @@ MLS3Accum mls3_begin(vec3 v, float d2min, float d2next, int nearest, int next, i
     // (mls/core.glsl's mls_begin: g - |u|^2 loses more than R^2 far out)
     vec3 P_next = (n > 0 ? mls3_p(next) : vec3(0.0)) - a.op;
     bool apart = d2next < 3.0e38 && a.g == d2next;
-    a.g_o = apart ? dot(P_next, P_next - a.twice_u) : a.g - dot(u, u);
+    a.g_o = apart ? dot(P_next, P_next - a.twice_u) : (a.g == d2min ? 0.0 : a.g - dot(u, u));
+    a.g_o = max(a.g_o, 0.0);   // g >= |u|^2 (mls/core.glsl's mls_begin)
 #endif
     a.W = 0.0;
     a.P = vec3(0.0);
@@ -187,7 +188,7 @@ float mls3_seen(MLS3Accum a, float d2, bool use, out bool none) {
 float mls3_excess(MLS3Accum a, vec3 p) {
     vec3 P = p - a.op;
     vec3 Q = P - a.twice_u;
-    return mls_excess(dot(P, Q), dot(abs(P), abs(Q)), a.g_o);
+    return mls_excess(dot(P, Q), dot(abs(P), abs(P) + abs(a.twice_u)), a.g_o);
 }
 #endif
 
