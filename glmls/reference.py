@@ -359,6 +359,18 @@ def segment_moments(
     scale = np.maximum(np.abs(x0), np.abs(x1))
     c = np.maximum(width, ON_SEGMENT_RESOLUTION * np.maximum(scale, 1.0))
     x, wq = sinh_nodes(x0, x1, c, REFERENCE_PANELS, REFERENCE_NODES)
+    if support == "gaussian":
+        # a segment beyond the foot: the weight falls from its near end xs within
+        # R^2 / (2 |xs|), narrower than the nodes about the foot (0.001 px 40 px past the
+        # end at R = 0.3, where they gave M = I): nodes about that end, of that width
+        near = np.where(x0 > 0, x0, np.where(x1 < 0, x1, 0.0))
+        beyond = near != 0
+        sliver = np.minimum(width, r2 / (2.0 * np.where(beyond, np.abs(near), 1.0)))
+        sliver = np.maximum(sliver, np.finfo(np.float64).tiny)
+        y, wy = sinh_nodes(np.zeros_like(x0), x1 - x0, sliver, REFERENCE_PANELS, REFERENCE_NODES)
+        from_end = np.where((x0 > 0)[..., None], x0[..., None] + y, x1[..., None] - y)
+        x = np.where(beyond[..., None], from_end, x)
+        wq = np.where(beyond[..., None], wy, wq)
     k, s, n = x.shape
     d2 = (h2[..., None] + x * x).reshape(k, s * n)
     if segment_config(config) is config:

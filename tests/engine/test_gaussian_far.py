@@ -191,3 +191,28 @@ def test_a_tie_for_the_nearest_handle_keeps_both(radius):
                 found = m(middle)
             expected = reference.mls(src, dst, middle, **options)[0]
             assert np.abs(found - expected).max() < 1e-3
+
+
+def test_past_a_segments_end_the_reference_integrates_the_sliver_there():
+    """Points 40-160 px past a segment's end, R = 0.3: the gaussian falls from the end
+    within R^2 / (2 d), ~0.001 px, narrower than the reference's nodes about the foot,
+    which left the segment out (M = I, f 0.6-2.5 px off); nodes about the end take it,
+    as the GPU's do. Checked against the segment as 2,001 point handles over that end."""
+    src = np.array([[20.0, 30.0], [150.0, 160.0], [60.0, 170.0]])
+    dst = src + [[1.0, -2.0], [-3.0, 1.5], [0.5, 2.0]]
+    ss = np.array([[[40.0, 40.0], [120.0, 60.0]], [[100.0, 100.0], [100.0, 180.0]]])
+    ds = ss + [[[2.0, 1.0], [-1.0, 2.0]], [[-2.0, -1.0], [1.0, -3.0]]]
+    direction = np.array([-0.24, 0.97]) / np.hypot(-0.24, 0.97)
+    points = np.array([100.0, 180.0]) + np.array([[40.0], [100.0], [160.0]]) * direction
+    options = {"transform": "similarity", "weight": "gaussian", "radius": 0.3}
+    expected = reference.mls(src, dst, points, src_segments=ss, dst_segments=ds, **options)[0]
+    with glmls.MLS(src, dst, src_segments=ss, dst_segments=ds, **options) as m:
+        assert np.abs(m(points) - expected).max() < 2e-3
+    (a, b), (c, d) = ss[1], ds[1]
+    for point, f in zip(points, expected, strict=True):
+        end = 0.09 / (2 * np.hypot(*(point - b)))  # the sliver's width
+        t = np.linspace(1 - 30 * end / 80.0, 1.0, 2001)[:, None]
+        dense_src = np.concatenate([src, a + t * (b - a)])
+        dense_dst = np.concatenate([dst, c + t * (d - c)])
+        dense = reference.mls(dense_src, dense_dst, point[None], **options)[0][0]
+        assert np.abs(dense - f).max() < 2e-3
