@@ -10,7 +10,6 @@ from typing import Protocol
 import numpy as np
 
 from ..core.config import MLSConfig
-from ..core.handles import Scaling
 from ..core.handleset import HandleSet
 from ..core.mesh import as_shape
 from ..gl.context import forked_from_gl
@@ -125,13 +124,16 @@ def frame_centre(m: object) -> np.ndarray:
     :attr:`~glmls.MLS.scaling`'s), about which its float32 holds f's points: their rounding,
     which the analyses' flatness tolerances count, grows with the distance from it, not from
     the origin. Zeros for other functions (float64 about the origin). In a process forked
-    from one that used GL, the centre of the box of the sources and the image."""
+    from one that used GL, whose kernel lives in a helper process, the same rule on the same
+    handles (:meth:`~glmls.core.handleset.HandleSet.gpu_scaling` of the near targets)."""
     if not isinstance(m, MLS) or m.dimension != 2:
         return np.zeros(2)
     if not forked_from_gl():
         return np.array(m.scaling.center, dtype=np.float64)
-    sources = HandleSet.validate(m.src, m.dst, m.src_segments, m.dst_segments).source_points()
-    return np.array(Scaling.fit(sources, sources, m.shape).center, dtype=np.float64)
+    handles = HandleSet.validate(m.src, m.dst, m.src_segments, m.dst_segments)
+    bounded = m.config.weight_entry.support == "radius"
+    near = handles.near_targets(m.shape, bounded=bounded)[0]
+    return np.array(near.gpu_scaling(m.shape).center, dtype=np.float64)
 
 
 def target_offset(m: object) -> np.ndarray:

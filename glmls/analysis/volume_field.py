@@ -260,15 +260,16 @@ def frame_centre(m: object) -> np.ndarray:
     kernel of a volume's warp), about which its float32 holds f's points: their rounding,
     which the analyses' flatness tolerances count, grows with the distance from it, not from
     the origin. Zeros for the float64 reference and other functions. In a process forked
-    from one that used GL, the centre of the box of the handles and the volume
-    (:func:`~glmls.core.handles3.fit_scaling3`)."""
+    from one that used GL, whose kernel lives in a helper process, the same rule on the same
+    handles (:func:`~glmls.core.handles3.fit_scaling3` of the near targets)."""
     if isinstance(m, KernelDeformation):
         return np.array(m._kernel.scaling.center, dtype=np.float64)
     if not isinstance(m, MLS) or m.dimension != 3:
         return np.zeros(3)
     if not forked_from_gl():
         return np.array(m.scaling.center, dtype=np.float64)
-    return np.array(fit_scaling3(m.src, m.dst, m.shape, m.spacing).center, dtype=np.float64)
+    near = m.dst - target_offset(m)
+    return np.array(fit_scaling3(m.src, near, m.shape, m.spacing).center, dtype=np.float64)
 
 
 def target_offset(m: object) -> np.ndarray:
