@@ -365,8 +365,10 @@ def segment_moments(
         # end at R = 0.3, where they gave M = I): nodes about that end, of that width
         near = np.where(x0 > 0, x0, np.where(x1 < 0, x1, 0.0))
         beyond = near != 0
-        sliver = np.minimum(width, r2 / (2.0 * np.where(beyond, np.abs(near), 1.0)))
-        sliver = np.maximum(sliver, np.finfo(np.float64).tiny)
+        # (c elsewhere: its nodes are not taken; 1e-280 keeps x / c within float64 for
+        # coordinates up to 1e6 where R^2 underflows)
+        sliver = np.minimum(c, r2 / (2.0 * np.where(beyond, np.abs(near), 1.0)))
+        sliver = np.where(beyond, np.maximum(sliver, 1e-280), c)
         y, wy = sinh_nodes(np.zeros_like(x0), x1 - x0, sliver, REFERENCE_PANELS, REFERENCE_NODES)
         from_end = np.where((x0 > 0)[..., None], x0[..., None] + y, x1[..., None] - y)
         x = np.where(beyond[..., None], from_end, x)
