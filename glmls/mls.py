@@ -796,7 +796,8 @@ class MLS(ForkSafe):
             The mesh step in pixels.
         background : float or sequence of float, default 0
             What uncovered pixels hold: a scalar, or one value per channel; images with
-            alpha (C = 2 or 4) get alpha 0 there unless ``background`` gives it.
+            alpha (C = 2 or 4) get alpha 0 there unless ``background`` gives it. For an
+            integer image, a whole number inside its dtype's range.
         border : {"constant", "edge", "symmetric", "reflect", "wrap"}, default "constant"
             What lies beyond the source image, with numpy.pad's meanings: ``"constant"``
             nothing (the background shows), ``"edge"`` the edge pixels repeated,

@@ -18,7 +18,14 @@ import math
 
 import numpy as np
 
-__all__ = ["SCALE_LIMIT", "scaled_background", "scaled_down", "scaled_up", "value_exponent"]
+__all__ = [
+    "SCALE_LIMIT",
+    "integer_background",
+    "scaled_background",
+    "scaled_down",
+    "scaled_up",
+    "value_exponent",
+]
 
 #: Float values whose largest finite magnitude lies within [2**-SCALE_LIMIT, 2**SCALE_LIMIT]
 #: reach the GPU as they are; others are divided by the power of two that brings it within.
@@ -83,6 +90,26 @@ def scaled_up(out: np.ndarray, exponent: int) -> np.ndarray:
     if beyond is not None and beyond.any():
         out[beyond] = np.copysign(top, out[beyond])
     return out
+
+
+def integer_background(values: list[float], background: object, dtype: np.dtype) -> list[float]:
+    """The float ``values`` of ``background`` for an array of integer ``dtype``:
+    ``ValueError`` naming ``background`` where a value is no value of the dtype (outside its
+    range, or not a whole number: 1.5 has no nearest uint8 to pick without a rounding rule
+    the caller did not ask for). The integer images and volumes that glmls warps are uint8
+    and uint16, whose values float32 holds exactly."""
+    info = np.iinfo(dtype)
+    for value in values:
+        if not info.min <= value <= info.max:
+            raise ValueError(
+                f"background {background!r} is outside {info.min}..{info.max} of {dtype}"
+            )
+        if value != math.floor(value):
+            raise ValueError(
+                f"background {background!r} is not a value of {dtype}: {value:g} is no whole "
+                f"number (give one of {info.min}..{info.max})"
+            )
+    return [float(value) for value in values]
 
 
 def scaled_background(

@@ -62,11 +62,11 @@ def warped_as(data: np.ndarray, name: object = "volume") -> np.ndarray:
 def check_file_background(background: float | tuple[float, ...], dtype: np.dtype, name: object):
     """``ValueError`` naming ``name`` where ``background`` (one value or one per channel) is
     not a value of a volume of ``dtype`` warped as float32 and written back (:func:`in_dtype`):
-    outside an integer dtype's range or NaN there, an integer float32 would round (beyond
-    +-2**24, such as 2**24 + 1: the warp would write another; the dtype's largest value is
-    kept), outside 0..1 for bool, a
-    finite value beyond float32's range (or a float16's) for a float dtype but float64 (the
-    warp checks a float64 volume's beside its values)."""
+    outside an integer dtype's range or NaN there, no whole number there, an integer float32
+    would round (beyond +-2**24, such as 2**24 + 1: the warp would write another; the dtype's
+    largest value is kept), outside 0..1 or no whole number for bool, a finite value beyond
+    float32's range (or a float16's) for a float dtype but float64 (the warp checks a float64
+    volume's beside its values)."""
     values = background if isinstance(background, tuple) else (background,)
     dtype = np.dtype(dtype)
     if dtype == np.bool_:
@@ -86,6 +86,11 @@ def check_file_background(background: float | tuple[float, ...], dtype: np.dtype
     if not all(low <= v <= high for v in values):
         raise ValueError(
             f"{name}: background {background!r} is outside {low:g}..{high:g} of {dtype}"
+        )
+    if any(v != math.floor(v) for v in values):
+        raise ValueError(
+            f"{name}: background {background!r} is not a value of {dtype} (a whole number "
+            f"in {low:g}..{high:g})"
         )
     for value in values:
         # what the warp writes (float32, then back in the dtype) against the value itself

@@ -15,7 +15,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.config import check_choice, check_real, counted
-from ..core.magnitudes import scaled_background, scaled_down, scaled_up, value_exponent
+from ..core.magnitudes import (
+    integer_background,
+    scaled_background,
+    scaled_down,
+    scaled_up,
+    value_exponent,
+)
 from ..core.mesh import check_grid
 from ..errors import DtypeError
 
@@ -227,9 +233,7 @@ def background_color(background: object, image: SourceImage) -> tuple[float, flo
     for value in values:
         out.append(_background_value(value, background))
     if np.issubdtype(image.dtype, np.integer):
-        top = np.iinfo(image.dtype).max
-        if not all(0 <= v <= top for v in out):
-            raise ValueError(f"background {background!r} is outside 0..{top} of {image.dtype}")
+        out = integer_background(out, background, image.dtype)
     else:
         out = scaled_background(out, background, image.dtype, image.exponent)
     if image.normalized:

@@ -14,7 +14,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.magnitudes import scaled_background, scaled_down, scaled_up, value_exponent
+from ..core.magnitudes import (
+    integer_background,
+    scaled_background,
+    scaled_down,
+    scaled_up,
+    value_exponent,
+)
 from ..errors import DtypeError
 from ..files.volumes import Volume
 from ..imaging.source import as_float32
@@ -165,10 +171,7 @@ def volume_background(background: object, volume: SourceVolume) -> tuple[float, 
             f"(one per channel), got {background!r}"
         )
     if np.issubdtype(volume.dtype, np.integer):
-        top = np.iinfo(volume.dtype).max
-        if not np.all((values >= 0) & (values <= top)):
-            raise ValueError(f"background {background!r} is outside 0..{top} of {volume.dtype}")
-        out = [float(v) for v in values]
+        out = integer_background([float(v) for v in values], background, volume.dtype)
     else:
         out = scaled_background(
             [float(v) for v in values], background, volume.dtype, volume.exponent

@@ -120,6 +120,10 @@ def test_bad_images_and_options(gl):
             m.warp(img, background=(1, 2))
         with pytest.raises(ValueError, match=r"outside 0\.\.255"):
             m.warp(img, background=256)
+        # a value no uint8 holds is refused, not rounded (half to even would give 2 for 1.5)
+        for fraction in (1.5, 2.5, 0.4, (0, 0, 0.5)):
+            with pytest.raises(ValueError, match=r"is not a value of uint8: .* no whole number"):
+                m.warp(img, background=fraction)
         with pytest.raises(TypeError):
             m.warp(img, "quads")  # options are keyword-only
 

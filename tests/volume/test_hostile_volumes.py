@@ -146,6 +146,17 @@ def test_a_background_beyond_float32_is_refused_not_made_inf(mls3, method, dtype
         mls3.warp(volume, method=method, background=background)
 
 
+@pytest.mark.parametrize("method", ["quads", "backward"])
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+def test_an_integer_volume_s_background_is_one_of_its_values(mls3, method, dtype):
+    """1.5 has no uint8 or uint16 value without a rounding rule the caller did not choose."""
+    volume = np.zeros((4, 5, 6), dtype)
+    for fraction in (1.5, 0.4, (2.5,)):
+        with pytest.raises(ValueError, match=rf"is not a value of {np.dtype(dtype)}"):
+            mls3.warp(volume, method=method, background=fraction)
+    assert (mls3.warp(volume, method=method, background=3.0) >= 0).all()
+
+
 @pytest.mark.parametrize("background", [np.inf, -np.inf, np.nan])
 def test_a_background_of_inf_or_nan_is_what_uncovered_voxels_hold(gl, background):
     with glmls.MLS(SRC, SRC + [2.0, 0, 0], ctx=gl) as m:  # the first 2 columns uncovered
