@@ -186,6 +186,7 @@ def config_defines(
         "MLS_WEIGHT_FUNCTION": entry.glsl_function,
         "MLS_WEIGHT_USES_S": entry.uses_s,
         "MLS_REACH_GAUSSIAN": entry.support == "gaussian",
+        "MLS_WEIGHT_RADIUS": entry.support == "radius",
         # idw's point handles, and any interpolating weight's: weights relative to the
         # nearest handles apart from the nearest one's place (mls/core.glsl, mls_begin)
         "MLS_WEIGHT_NEXT": (entry.uses_s or config.interpolating) and not segments,

@@ -163,6 +163,7 @@ class MLSKernel3:
             "MLS_GAUSSIAN_TOLERANCE": GAUSSIAN_TOLERANCE,
             "MLS_GAUSSIAN_CAP": GAUSSIAN_CAP,
             "MLS_REACH_GAUSSIAN": entry.support == "gaussian",
+            "MLS_WEIGHT_RADIUS": entry.support == "radius",
             # as in 2D (glmls.engine.kernel.config_defines)
             "MLS_WEIGHT_NEXT": entry.uses_s or config.interpolating,
             "MLS_TRANSFORM": transform_code(config.transform),

@@ -292,7 +292,7 @@ float mls_handle_weight(MLSAccum a, vec2 p, float d2) {
     float scale = dot(abs(P), abs(P) + abs(a.twice_u));
     float w = mls_weight_excess(mls_excess(dot(P, Q), scale, a.g_o), seen, a.inv_m);
 #else
-    float w = mls_weight(seen, a.g, a.inv_m, a.sigma);
+    float w = mls_weight_seen(d2, seen, a.g, a.inv_m, a.sigma);
 #endif
     return none ? 0.0 : w;
 }

@@ -7,6 +7,9 @@
 #ifndef MLS_REACH_GAUSSIAN
 #define MLS_REACH_GAUSSIAN 0   // 1: the weight is the gaussian (glmls.core.weights support)
 #endif
+#ifndef MLS_WEIGHT_RADIUS
+#define MLS_WEIGHT_RADIUS 0    // 1: the weight is 0 from d = R on (glmls.core.weights support)
+#endif
 #ifndef MLS_WEIGHT_NEXT
 // 1: idw or an interpolating weight without segments, relative to the nearest apart
 // (mls/core.glsl, mls_begin)
@@ -97,6 +100,25 @@ float mls_interpolated(float w, float d2, float inv_m) {
 // Weight of a handle at squared distance d2 (see mls/weights.glsl for m, inv_m and sigma).
 float mls_weight(float d2, float m, float inv_m, float sigma) {
     return mls_interpolated(MLS_WEIGHT_FUNCTION(d2, m, inv_m, sigma), d2, inv_m);
+}
+
+// The squared distance a weight's function takes where MLS_WEIGHT_NEXT bounds the nearest's
+// weight, ``seen`` = max(d2, near2) (mls/core.glsl, mls_begin): the bound is for the powers
+// (d2 / m)^alpha, idw's own and the interpolating factor; a weight with a reach takes d2
+// itself, as near2 (a share of the next handle's distance) may lie past R: with the next
+// handle far and alpha large it left out the one handle in reach (f = v there).
+float mls_function_d2(float d2, float seen) {
+#if MLS_WEIGHT_RADIUS
+    return d2;
+#else
+    return seen;
+#endif
+}
+
+// Weight of a handle at squared distance d2 that the powers see at ``seen`` (above).
+float mls_weight_seen(float d2, float seen, float m, float inv_m, float sigma) {
+    float w = MLS_WEIGHT_FUNCTION(mls_function_d2(d2, seen), m, inv_m, sigma);
+    return mls_interpolated(w, seen, inv_m);
 }
 
 // The slope dw/d(d2) of the weight function MLS_SLOPE_FUNCTION (mls/weights.glsl) where the

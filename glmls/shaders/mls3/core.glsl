@@ -208,7 +208,7 @@ float mls3_weight_at(MLS3Accum a, vec3 p, bool use, out float d2) {
 #if MLS_REACH_GAUSSIAN
     float w = mls_weight_excess(mls3_excess(a, p), seen, a.inv_m);
 #else
-    float w = mls_weight(seen, a.g, a.inv_m, a.sigma);
+    float w = mls_weight_seen(d2, seen, a.g, a.inv_m, a.sigma);
 #endif
     return none ? 0.0 : w;
 }
@@ -580,8 +580,9 @@ float mls3_slope_at(MLS3Accum a, vec3 p, bool use) {
     float raw = mls_gaussian_excess(x);
     float slope = mls_gaussian_excess_slope(x, raw);
 #else
-    float raw = MLS_WEIGHT_FUNCTION(seen, a.g, a.inv_m, a.sigma);
-    float slope = MLS_SLOPE_FUNCTION(seen, raw, a.g, a.inv_m, a.sigma);
+    float taken = mls_function_d2(d2, seen);
+    float raw = MLS_WEIGHT_FUNCTION(taken, a.g, a.inv_m, a.sigma);
+    float slope = MLS_SLOPE_FUNCTION(taken, raw, a.g, a.inv_m, a.sigma);
 #endif
     slope = mls_interpolated_slope(raw, slope, seen, a.inv_m);
     return none ? 0.0 : slope;

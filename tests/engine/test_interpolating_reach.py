@@ -1,0 +1,62 @@
+"""A radius weight made interpolating, at a point with one handle in reach and the next one
+far out of it: f is the translation by that handle's q - p (docs/mathematics.md, one
+handle), on the GPU as in the float64 reference, in 2D and 3D, f, M and J alike.
+
+The interpolating weights are taken relative to the next handle's squared distance m, the
+nearest's bounded where (d^2 / m)^alpha falls below 2^-50 (``near2``, mls/core.glsl): with
+the next handle thousands of radii away or alpha large, that bound lies past R, and the
+weight's function must see the handle's own distance, not the bound, or the one handle in
+reach weighs 0 and f is the identity there.
+
+Tolerance: 1e-5 of the coordinates' extent (float32's rounding of the scaled coordinates,
+a few 1e-8 of it, with room).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import glmls
+from glmls import reference
+
+RADIUS_WEIGHTS = ("cressman", "shepard", "linear")
+MOVE2 = np.array([3.0, -2.0])
+MOVE3 = np.array([3.0, -2.0, 1.0])
+
+
+@pytest.mark.parametrize("weight", RADIUS_WEIGHTS)
+@pytest.mark.parametrize(("far", "alpha"), [(42.0, 8.0), (500.0, 4.0), (5e5, 1.5), (5e5, 10.0)])
+def test_one_handle_in_reach_translates_2d(gl, weight, far, alpha):
+    p = np.array([[10.0, 10.0], [10.0 + far, 10.0]])
+    q = p + [MOVE2, [0.0, 0.0]]
+    v = np.array([[11.0, 10.0], [10.0, 12.0], [10.3, 9.6], [12.5, 10.5]])
+    options = {"weight": weight, "radius": 3.0, "interpolating": True, "alpha": alpha}
+    expected, _, _ = reference.mls(p, q, v, **options)
+    np.testing.assert_allclose(expected, v + MOVE2, atol=1e-9)
+    with glmls.MLS(p, q, ctx=gl, **options) as m:
+        f = m(v)
+        matrices, translations = m.matrices(v)
+    tolerance = 1e-5 * far
+    np.testing.assert_allclose(f, expected, atol=tolerance)
+    np.testing.assert_allclose(matrices, np.broadcast_to(np.eye(2), matrices.shape), atol=1e-5)
+    np.testing.assert_allclose(translations, np.broadcast_to(MOVE2, v.shape), atol=tolerance)
+
+
+@pytest.mark.parametrize("weight", RADIUS_WEIGHTS)
+@pytest.mark.parametrize(("far", "alpha"), [(50.0, 8.0), (5e5, 1.5), (5e5, 10.0)])
+def test_one_handle_in_reach_translates_3d(gl, weight, far, alpha):
+    p = np.array([[10.0, 10.0, 10.0], [10.0 + far, 10.0, 10.0]])
+    q = p + [MOVE3, [0.0, 0.0, 0.0]]
+    v = np.array([[11.0, 10.0, 10.0], [10.5, 10.5, 10.5], [10.0, 10.0, 12.0]])
+    options = {"weight": weight, "radius": 3.0, "interpolating": True, "alpha": alpha}
+    expected, _, _ = reference.mls(p, q, v, **options)
+    np.testing.assert_allclose(expected, v + MOVE3, atol=1e-9)
+    with glmls.MLS(p, q, ctx=gl, **options) as m:
+        f = m(v)
+        _, jacobian = m.jacobian(v)
+        back = m.inverse(expected)
+    tolerance = 1e-5 * far
+    np.testing.assert_allclose(f, expected, atol=tolerance)
+    np.testing.assert_allclose(jacobian, np.broadcast_to(np.eye(3), jacobian.shape), atol=1e-4)
+    np.testing.assert_allclose(back, v, atol=max(tolerance, 1e-3))
