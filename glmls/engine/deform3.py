@@ -173,6 +173,10 @@ def deform_mesh3(
     det = _flat_to_zero(kernel, padded[:, :3], jacobian, out[:, 15].astype(np.float64))
     if kernel.flat:  # f maps the vertex's neighbourhood into the targets' plane: J is singular
         det[plain] = 0.0
+    normals_out = out[:, 0:3].astype(np.float64)
+    # J singular (f flattens space there): no normal, as the reference's, where float32's
+    # n cof(J) is the flat image's normal or, with n along J's null direction, rounding's
+    normals_out[det == 0] = 0.0
     deformed = vertices + out[:, 3:6] * kernel.scaling.scale
     if kernel.offset.any():  # the targets' offset, in float64 (MLSKernel3.offset)
         deformed += kernel.offset
@@ -184,7 +188,7 @@ def deform_mesh3(
     return DeformedMesh(
         vertices=deformed,
         faces=faces,
-        normals=out[:, 0:3].astype(np.float64),
+        normals=normals_out,
         jacobian=jacobian,
         det_j=det,
         vertex_folds=vertex_folds,

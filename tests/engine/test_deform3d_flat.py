@@ -147,7 +147,9 @@ def test_an_affine_map_onto_a_tilted_plane_folds_every_vertex(gl, size):
     """Random planes turned off the axes, the sphere (with faces) and points in a box half as
     large again as the handles': f maps every probe of J into the plane (the affine solve is
     the plain A^-1 B everywhere here), so det J is 0 and every vertex and face folds, however
-    far float32's J is from singular."""
+    far float32's J is from singular; and no vertex has a normal (J^-T does not exist), as
+    in the reference, where float32's n cof(J) would give the plane's normal or, for normals
+    along J's null direction, one of rounding's."""
     rng = np.random.default_rng(7)
     sphere = glmls.data.sphere()
     for _ in range(6):
@@ -159,6 +161,7 @@ def test_an_affine_map_onto_a_tilted_plane_folds_every_vertex(gl, size):
         for out in (mesh, cloud):
             assert (out.det_j == 0).all() and out.vertex_folds.all()
         assert mesh.face_folds.all()
+        np.testing.assert_array_equal(mesh.normals, 0.0)
 
 
 @pytest.mark.parametrize("size", [1.0, 100.0, 5e3])
