@@ -19,9 +19,11 @@ from . import (
     analysis,
     augment,
     data,
+    files,
     gl,
     mls3,  # noqa: F401  (registers the MLS of (N, 3) handles)
     reference,
+    volume,
 )
 from .batch import BatchResult, warp_batch
 from .core.config import RADIUS_WEIGHTS, TRANSFORMS, WEIGHTS, MLSConfig
@@ -32,10 +34,12 @@ from .errors import (
     BorderWarning,
     ContextError,
     DegenerateHandlesError,
+    DistributedUnavailableError,
     DtypeError,
     GLUnavailableError,
     ImageWarning,
     InputFileError,
+    NoDisplayError,
     ReleasedError,
 )
 from .files.images import imread, imwrite
@@ -62,6 +66,7 @@ __all__ = [
     "ContextError",
     "DeformedMesh",
     "DegenerateHandlesError",
+    "DistributedUnavailableError",
     "DtypeError",
     "GLUnavailableError",
     "HandleSet",
@@ -70,6 +75,7 @@ __all__ = [
     "InverseMLS",
     "MLSConfig",
     "Mesh",
+    "NoDisplayError",
     "ReleasedError",
     "Volume",
     "WarpOptions",
@@ -77,6 +83,7 @@ __all__ = [
     "analysis",
     "augment",
     "data",
+    "files",
     "gl",
     "imread",
     "imwrite",
@@ -84,6 +91,7 @@ __all__ = [
     "read_mesh",
     "read_volume",
     "reference",
+    "volume",
     "warp",
     "warp_batch",
     "write_mesh",

@@ -70,6 +70,33 @@ class ContextError(RuntimeError):
     """
 
 
+class NoDisplayError(RuntimeError):
+    """No window could be opened: no display, no glfw, or no OpenGL 4.3 core context on it.
+
+    Raised by the real-time windows (:meth:`glmls.app.App.run`,
+    :meth:`glmls.app.VolumeApp.run`, ``glmls demo``); the message says how to run them (under
+    a display, or ``xvfb-run -a``) and which headless commands do without one.
+
+    Examples
+    --------
+    >>> issubclass(glmls.NoDisplayError, RuntimeError)
+    True
+    """
+
+
+class DistributedUnavailableError(ImportError):
+    """A Dask scheduler was asked for, but Dask's ``distributed`` package is not installed.
+
+    Raised by the studies and the tune (:func:`glmls.analysis.run_jobs`, ``glmls tune
+    --scheduler``); the message says which extra installs it.
+
+    Examples
+    --------
+    >>> issubclass(glmls.DistributedUnavailableError, ImportError)
+    True
+    """
+
+
 class DtypeError(TypeError, ValueError):
     """An array of a dtype that glmls does not take for it; the message names the array.
 

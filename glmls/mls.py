@@ -345,7 +345,14 @@ class MLS(ForkSafe):
 
     @property
     def kernel(self) -> MLSKernel:
-        """The handles on the GPU and the shaders' defines and uniforms (for GL passes)."""
+        """The handles on the GPU and the shaders' defines and uniforms (for GL passes).
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0], [8, 4]], [[1, 0], [8, 5]]) as m:
+        ...     print(type(m.kernel).__name__, m.kernel.scaling == m.scaling)
+        MLSKernel True
+        """
         return self._here(self._kernel)
 
     @property
@@ -379,6 +386,13 @@ class MLS(ForkSafe):
         -------
         dict
             Name -> value, as the shaders are compiled with.
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0], [8, 4]], [[1, 0], [8, 5]], transform="rigid") as m:
+        ...     defines = m.defines()
+        >>> defines["MLS_TRANSFORM"], defines["MLS_INTERPOLATING"]  # 0 affine, 1 similarity
+        (2, False)
         """
         return self.kernel.defines()
 
@@ -394,6 +408,13 @@ class MLS(ForkSafe):
         -------
         dict
             Uniform name -> value.
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0], [8, 4]], [[1, 0], [8, 5]], alpha=2.0) as m:
+        ...     uniforms = m.uniforms((64, 64))
+        >>> uniforms["u_alpha"]
+        2.0
         """
         return self.kernel.uniforms(shape)
 
@@ -447,6 +468,12 @@ class MLS(ForkSafe):
         ------
         glmls.ReleasedError
             After :meth:`release`.
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0], [8, 4]], [[1, 0], [8, 5]]) as m:
+        ...     print(m.swapped_kernel() is m.swapped_kernel())
+        True
         """
         self.kernel.check_alive()
         if self._swapped is None:
@@ -1085,7 +1112,10 @@ class InverseMLS:
     ``"constant"`` blends towards ``cval`` past the edge pixels' centres, where glmls reads
     the edge pixels up to the image's border). Its pixels
     whose point has no preimage are NaN, where glmls's hold ``background``:
-    ``np.nan_to_num(out, nan=cval)``.
+    ``np.nan_to_num(out, nan=cval)``. At the jump of a compact weight's reach the two may
+    differ by a pixel's width: there f comes within Newton's 0.05 px of points that it does
+    not reach, and whether a solve accepts such a near preimage depends on where its Newton
+    starts (the warp's first guess and this map's are drawn over different canvases).
 
     Parameters
     ----------

@@ -282,6 +282,12 @@ class MLS3(MLS):
         """The handles on the GPU and the shaders' defines and uniforms (for GL passes).
 
         ``#include "mls3/core.glsl"``: ``MLSKernel3.program``, ``MLSKernel3.bind``.
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0, 0], [8, 4, 2]], [[1, 0, 0], [8, 5, 2]]) as m:
+        ...     print(type(m.kernel).__name__)
+        MLSKernel3
         """
         return self._here(self._kernel)  # type: ignore[return-value]
 
@@ -310,6 +316,13 @@ class MLS3(MLS):
         -------
         dict
             Uniform name -> value.
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0, 0], [8, 4, 2]], [[1, 0, 0], [8, 5, 2]], alpha=2.0) as m:
+        ...     uniforms = m.uniforms((16, 16, 16))
+        >>> uniforms["u_alpha"]
+        2.0
         """
         if shape is None:
             return self.kernel.uniforms()
@@ -351,6 +364,12 @@ class MLS3(MLS):
         -------
         MLSKernel3
             Made on first use, kept until the handles change.
+
+        Examples
+        --------
+        >>> with glmls.MLS([[0, 0, 0], [8, 4, 2]], [[1, 0, 0], [8, 5, 2]]) as m:
+        ...     print(m.swapped_kernel() is m.swapped_kernel())
+        True
         """
         self.kernel.check_alive()
         if self._swapped is None:

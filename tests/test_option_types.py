@@ -201,3 +201,16 @@ def test_max_batch_bytes_follows_the_integer_rule(gl):
         glmls.warp_batch(images, [[[0, 0]]], [[[1, 0]]], max_batch_bytes=2.0)
     with pytest.raises(ValueError, match=r"max_batch_bytes must be an integer >= 1 or None, got 0"):
         glmls.warp_batch(images, [[[0, 0]]], [[[1, 0]]], max_batch_bytes=0)
+
+
+@pytest.mark.parametrize("config", ["rigid", {"transform": "rigid"}, 3])
+@pytest.mark.parametrize("function", ["mls", "mls_error", "weights"])
+def test_the_reference_s_config_is_an_mls_config(function, config):
+    """A transform's name or a dict is a keyword's value, not a config: a TypeError naming
+    what was given, not an AttributeError from inside."""
+    src = np.array([[1.0, 1], [8, 1], [1, 6]])
+    args = (np.ones((1, 3)), config, None) if function == "weights" else (src, src, src, config)
+    with pytest.raises(
+        TypeError, match=rf"config must be an MLSConfig, got {type(config).__name__}"
+    ):
+        getattr(glmls.reference, function)(*args)

@@ -334,6 +334,8 @@ def cell_jacobians(
     >>> glmls.analysis.cell_jacobians(lambda v: v + 1.0, (4, 4, 4)).count
     0
     """
+    if not callable(m):  # before any work, rather than at the first block of f
+        raise TypeError(f"m must be a glmls.MLS or a function of points, got {type(m).__name__}")
     dims = as_volume_shape(shape)
     step = check_grid3(grid)
     # det, ratio and min det (float64) and the folds per cell, and the mask per voxel

@@ -38,15 +38,12 @@ from multiprocessing import resource_tracker
 from typing import Any
 
 from ..core.config import check_integer
+from ..errors import DistributedUnavailableError
 from ..gl.signals import signals_held
 
 __all__ = ["DistributedUnavailableError", "check_jobs", "check_scheduler", "run_jobs"]
 
 INSTALL = "pip install 'glmls[distributed]'"
-
-
-class DistributedUnavailableError(ImportError):
-    """A Dask scheduler was asked for, but Dask's ``distributed`` is not installed."""
 
 
 def check_jobs(jobs: object) -> int:
@@ -121,7 +118,7 @@ def run_jobs(
         ``function`` that is not callable.
     ValueError
         For ``jobs`` < 1 or a blank scheduler.
-    DistributedUnavailableError
+    glmls.DistributedUnavailableError
         An ``ImportError``: a scheduler was asked for without Dask's ``distributed``.
     Exception
         What ``function`` raised, with the failing item's index in its message

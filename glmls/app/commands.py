@@ -77,5 +77,10 @@ def load_handles(path: Path, controller: Controller, *, targets: Path | None = N
             "handles (x, y)"
         )
     handles = read_handle_set(path, dst=targets)
-    controller.set_handles(handles.src, handles.dst, handles.src_segments, handles.dst_segments)
+    controller.set_handles(
+        handles.src,
+        handles.dst,
+        src_segments=handles.src_segments,
+        dst_segments=handles.dst_segments,
+    )
     return handles

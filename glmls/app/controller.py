@@ -14,6 +14,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..core.mesh import as_shape
 from .controls import Controls, window_bindings
 from .editing import UNDO_DEPTH, Editor, Handles, pick
 from .events import Key, Move, Press, Release, Scroll
@@ -177,7 +178,7 @@ class Controller(Controls):
         mode: str = "points",
         help_visible: bool = False,
     ) -> None:
-        self.shape = (int(shape[0]), int(shape[1]))
+        self.shape = as_shape(shape)  # (H, W) of integers >= 1, or an error naming shape
         handles = Handles.of(src, dst, src_segments, dst_segments, reference)
         self.editor = Editor(handles, self.shape)
         self.settings = settings if settings is not None else Settings()
@@ -454,7 +455,12 @@ class Controller(Controls):
         return self.editor.redo_depth
 
     def set_handles(
-        self, src: object, dst: object, src_segments: object = None, dst_segments: object = None
+        self,
+        src: object,
+        dst: object,
+        *,
+        src_segments: object = None,
+        dst_segments: object = None,
     ) -> None:
         """Replace every handle (undoable), e.g. loaded from a file; the reference points stay.
 
@@ -594,13 +600,18 @@ class Controller(Controls):
         self._release()  # a drag under way ends first, as its own edit (a drawn segment kept)
         s = self.editor.state
         if not (np.array_equal(s.dst, s.src) and np.array_equal(s.dst_segments, s.src_segments)):
-            self.set_handles(s.src, s.src, s.src_segments, s.src_segments)
+            self.set_handles(s.src, s.src, src_segments=s.src_segments, dst_segments=s.src_segments)
 
     def _do_restore(self) -> None:
         self._release()  # a drag under way ends first, as its own edit
         loaded = self.editor.loaded
         if not loaded.same_handles(self.editor.state):  # as loaded: no edit to undo
-            self.set_handles(loaded.src, loaded.dst, loaded.src_segments, loaded.dst_segments)
+            self.set_handles(
+                loaded.src,
+                loaded.dst,
+                src_segments=loaded.src_segments,
+                dst_segments=loaded.dst_segments,
+            )
 
     def _do_undo(self) -> None:
         self._pan_anchor = None

@@ -26,6 +26,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..core.config import check_integer, check_real
 from ..errors import InputFileError
 from ..files.atomic import atomic_write
 
@@ -68,6 +69,12 @@ MAX_WAIT_FRAMES = 1_000_000
 _CTRL_KEY = re.compile(r"Ctrl\+(Shift\+)?[A-Z]")
 
 
+def _check_point(event: object, *names: str) -> None:
+    """``TypeError``/``ValueError`` naming the event's field that is no finite number."""
+    for name in names:
+        check_real(f"{type(event).__name__}.{name}", getattr(event, name))
+
+
 @dataclass(frozen=True)
 class Press:
     """A mouse button pressed at image point (x, y).
@@ -101,6 +108,9 @@ class Press:
     button: str = "left"
     mods: frozenset[str] = frozenset()
 
+    def __post_init__(self) -> None:
+        _check_point(self, "x", "y")
+
 
 @dataclass(frozen=True)
 class Move:
@@ -120,6 +130,9 @@ class Move:
 
     x: float
     y: float
+
+    def __post_init__(self) -> None:
+        _check_point(self, "x", "y")
 
 
 @dataclass(frozen=True)
@@ -143,6 +156,9 @@ class Release:
     x: float
     y: float
     button: str = "left"
+
+    def __post_init__(self) -> None:
+        _check_point(self, "x", "y")
 
 
 @dataclass(frozen=True)
@@ -169,6 +185,9 @@ class Scroll:
     x: float
     y: float
     dy: float
+
+    def __post_init__(self) -> None:
+        _check_point(self, "x", "y", "dy")
 
 
 @dataclass(frozen=True)
@@ -215,6 +234,9 @@ class Wait:
     """
 
     frames: int
+
+    def __post_init__(self) -> None:
+        check_integer("Wait.frames", self.frames, 0, MAX_WAIT_FRAMES)
 
 
 _FIELDS = {

@@ -8,6 +8,7 @@ from collections.abc import Callable
 
 import moderngl
 
+from ..errors import NoDisplayError
 from ..gl.llvm import load_llvm_users_first
 from .events import KEY_NAMES, Event, Key, Move, Press, Release, Scroll
 
@@ -18,10 +19,6 @@ NO_DISPLAY_HINT = (
     "or use the headless commands instead (`glmls --help`; in Python glmls.warp, "
     "glmls.analysis.report)"
 )
-
-
-class NoDisplayError(RuntimeError):
-    """No window could be opened (no display, no glfw, or no GL 4.3 core context on it)."""
 
 
 #: Whether glfw's termination at exit is registered: glfw stays initialised from the first

@@ -57,7 +57,7 @@ def cycle(values: Sequence, value: object, step: int = 1):
     return values[(list(values).index(value) + step) % len(values)]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Settings:
     """What the image window shows: the MLS configuration and the image construction.
 

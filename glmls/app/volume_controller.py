@@ -80,7 +80,7 @@ IMAGE_ONLY_KEYS = {
 }
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class VolumeSettings:
     """What the volume window computes: the MLS configuration and the slices' construction.
 

@@ -250,7 +250,7 @@ class WindowLoop:
 
         Raises
         ------
-        glmls.app.glfw_window.NoDisplayError
+        glmls.NoDisplayError
             (a ``RuntimeError``) where no window can be opened: no display, no glfw, or no
             OpenGL 4.3 core context on it.
 

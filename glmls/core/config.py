@@ -215,10 +215,13 @@ def config_or_options(config: MLSConfig | None, options: dict[str, object]) -> M
     """``config``, or an :class:`MLSConfig` of the keyword ``options`` where it is None.
 
     Both at once is a ``TypeError`` naming the options: one of them would go unused, and f
-    would silently be another weight's or transform's than the one asked for.
+    would silently be another weight's or transform's than the one asked for; so is a
+    ``config`` that is no :class:`MLSConfig`.
     """
     if config is None:
         return MLSConfig(**options)  # type: ignore[arg-type]
+    if not isinstance(config, MLSConfig):  # (a name such as "rigid" is a keyword's value)
+        raise TypeError(f"config must be an MLSConfig, got {type(config).__name__}")
     if options:
         names = ", ".join(sorted(options))
         raise TypeError(

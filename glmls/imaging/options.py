@@ -173,7 +173,7 @@ class WarpOptions:
 FIELDS = frozenset(f.name for f in dataclasses.fields(WarpOptions))
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class PipelineOptions:
     """How a :class:`~glmls.gl.WarpPipeline` builds images, between equivalent paths.
 

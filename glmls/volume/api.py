@@ -50,8 +50,8 @@ def _options(mls: object, options: VolumeOptions | None, keywords: dict) -> Volu
 def warp_volume(
     mls: object,
     volume: object,
-    options: VolumeOptions | None = None,
     *,
+    options: VolumeOptions | None = None,
     slabs: SlabOptions | None = None,
     **keywords: object,
 ) -> np.ndarray:

@@ -240,7 +240,7 @@ VOLUME_WARP_KEYWORDS = frozenset(
 )
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class SlabOptions:
     """How the volume construction cuts its work into slabs and bands.
 

@@ -176,7 +176,7 @@ def test_reset_restore_and_set_handles_take_segments():
     with pytest.raises(ValueError, match="same shape"):
         make(src_segments=loaded, dst_segments=np.zeros((0, 2, 2)))
     with pytest.raises(ValueError, match=r"shape \(S, 2, 2\)"):
-        c.set_handles(POINTS, POINTS, [[1, 2, 3]], [[1, 2, 3]])
+        c.set_handles(POINTS, POINTS, src_segments=[[1, 2, 3]], dst_segments=[[1, 2, 3]])
 
 
 def test_points_and_segments_are_edited_in_either_mode():

@@ -64,7 +64,7 @@ def test_far_maps_show_the_extended_volume(kernel3, name, method):
         options = VolumeOptions(method=method, border=border, interpolation="linear")
         with warnings.catch_warnings():
             warnings.simplefilter("error", BorderWarning)
-            out = warp_volume(m, volume, options)
+            out = warp_volume(m, volume, options=options)
         expected = _reference(volume, MAPS[name], border)
         np.testing.assert_allclose(out, expected, atol=0.05, err_msg=border)
 

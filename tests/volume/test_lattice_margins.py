@@ -143,9 +143,9 @@ def test_per_side_margins_give_the_wide_margin_result(
         frame = {"output_shape": (d + 3, h, w + 4), "origin": (-4.0, 0.0, 0.0)}
     options = VolumeOptions(method=method, border=border, interpolation="linear", grid=2, **frame)
     lattices = _kept_lattices(monkeypatch)
-    sides = warp_volume(m, volume, options)
+    sides = warp_volume(m, volume, options=options)
     _uniform(monkeypatch, 4)
-    wide = warp_volume(m, volume, options)
+    wide = warp_volume(m, volume, options=options)
     np.testing.assert_array_equal(sides, wide)
     narrow, broad = lattices
     assert narrow.cell_count < broad.cell_count
@@ -167,9 +167,9 @@ def test_a_side_short_of_its_margin_leaves_voxels_empty(kernel3, monkeypatch):
         (_, x_high), y, z = made(field, lattice, frame, **options)
         return (0, x_high), y, z
 
-    full = warp_volume(m, volume, options)
+    full = warp_volume(m, volume, options=options)
     monkeypatch.setattr(construction, "border_margin3", short)
-    cut = warp_volume(m, volume, options)
+    cut = warp_volume(m, volume, options=options)
     assert not np.any(full == 0.0)
     assert np.all(cut[:, :, :4] == 0.0) and np.array_equal(cut[:, :, 6:], full[:, :, 6:])
 
@@ -212,10 +212,10 @@ def test_a_slice_takes_the_cells_about_its_plane(kernel3, monkeypatch, method, g
         )
         for size, origin in planes
     ]
-    cut = [warp_volume(m, volume, options) for options in slices]
+    cut = [warp_volume(m, volume, options=options) for options in slices]
     _uncut(monkeypatch)
     for options, sliced in zip(slices, cut, strict=True):
-        np.testing.assert_array_equal(sliced, warp_volume(m, volume, options))
+        np.testing.assert_array_equal(sliced, warp_volume(m, volume, options=options))
     for short, whole in zip(lattices[:3], lattices[3:], strict=True):
         assert short.cell_count < whole.cell_count, (short.cells, whole.cells)
     assert lattices[0].cell_count < 0.6 * lattices[3].cell_count  # f hardly moves z
@@ -245,6 +245,6 @@ def test_a_narrow_bump_between_the_samples_keeps_its_cells(kernel3, monkeypatch,
     )
     monkeypatch.setattr(construction, "REACH_SAMPLES", 6)
     monkeypatch.setattr(bands, "REACH_SAMPLES", 6)
-    sliced = warp_volume(m, volume, options)
+    sliced = warp_volume(m, volume, options=options)
     _uncut(monkeypatch)
-    np.testing.assert_array_equal(sliced, warp_volume(m, volume, options))
+    np.testing.assert_array_equal(sliced, warp_volume(m, volume, options=options))

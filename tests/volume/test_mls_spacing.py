@@ -79,7 +79,7 @@ def test_another_spacing_is_refused_naming_both(gl, problem):
     with glmls.MLS(src, dst, shape=SHAPE, spacing=SPACING, ctx=gl) as m:
         for attempt in (
             lambda: m.warp(volume, spacing=(1, 1, 1)),
-            lambda: glmls.volume.warp_volume(m, volume, VolumeOptions(spacing=(1, 1, 1))),
+            lambda: glmls.volume.warp_volume(m, volume, options=VolumeOptions(spacing=(1, 1, 1))),
             lambda: m.coordinate_map(SHAPE, spacing=(1.0, 1.0, 1.0)),
             lambda: m.bounds(SHAPE, spacing=[1, 1, 1]),
             lambda: volume_error_field(m, SHAPE, spacing=(1, 1, 1), grid=4),
@@ -88,7 +88,9 @@ def test_another_spacing_is_refused_naming_both(gl, problem):
             with pytest.raises(ValueError, match=message):
                 attempt()
         options = VolumeOptions(method="backward", interpolation="linear")  # the MLS's spacing
-        assert_array_equal(glmls.volume.warp_volume(m, volume, options), _warps(m, volume)[1])
+        assert_array_equal(
+            glmls.volume.warp_volume(m, volume, options=options), _warps(m, volume)[1]
+        )
 
 
 def test_isotropic_spacing_warps_as_none(gl, problem):

@@ -102,15 +102,17 @@ def test_slabs_are_invisible(kernel3, rng, volume):
     for method in ("quads", "backward"):
         for border in ("constant", "wrap"):
             options = VolumeOptions(method=method, border=border, interpolation="linear")
-            whole = warp_volume(m, volume, options)
-            sliced = warp_volume(m, volume, options, slabs=small)
+            whole = warp_volume(m, volume, options=options)
+            sliced = warp_volume(m, volume, options=options, slabs=small)
             np.testing.assert_array_equal(whole, sliced)
-            banded = warp_volume(m, volume, options, slabs=SlabOptions(band_bytes=small.band_bytes))
+            banded = warp_volume(
+                m, volume, options=options, slabs=SlabOptions(band_bytes=small.band_bytes)
+            )
             np.testing.assert_array_equal(whole, banded)  # one slab, every band
 
     # bands too small for one layer of cells and its neighbours: the option is named
     with pytest.raises(ValueError, match="give a larger band_bytes or a coarser grid"):
-        warp_volume(m, volume, VolumeOptions(), slabs=SlabOptions(band_bytes=1024))
+        warp_volume(m, volume, options=VolumeOptions(), slabs=SlabOptions(band_bytes=1024))
 
 
 def test_kernel_field_fills_the_lattice_as_the_reference(kernel3, gl, rng, volume):
@@ -167,8 +169,10 @@ def test_volumes_larger_than_a_texture_are_held_by_slices(kernel3, rng, volume):
         for border in ("constant", "reflect"):
             for interpolation in ("nearest", "linear"):
                 options = VolumeOptions(method=method, border=border, interpolation=interpolation)
-                whole = warp_volume(m, volume, options)
-                np.testing.assert_array_equal(warp_volume(m, volume, options, slabs=slices), whole)
+                whole = warp_volume(m, volume, options=options)
+                np.testing.assert_array_equal(
+                    warp_volume(m, volume, options=options, slabs=slices), whole
+                )
     with pytest.raises(ValueError, match="more than one texture holds"):
         warp_volume(m, volume, slabs=SlabOptions(texture_bytes=h * w * 2))
 
