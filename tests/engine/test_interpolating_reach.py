@@ -60,3 +60,35 @@ def test_one_handle_in_reach_translates_3d(gl, weight, far, alpha):
     np.testing.assert_allclose(f, expected, atol=tolerance)
     np.testing.assert_allclose(jacobian, np.broadcast_to(np.eye(3), jacobian.shape), atol=1e-4)
     np.testing.assert_allclose(back, v, atol=max(tolerance, 1e-3))
+
+
+SEGMENT = np.array([[[0.0, 0.0], [10.0, 0.0]]])
+TURNED = np.array([[[0.0, 0.0], [0.0, 10.0]]])  # the segment turned a quarter
+QUARTER = np.array([[0.0, 1.0], [-1.0, 0.0]])  # its M (row vectors)
+
+
+@pytest.mark.parametrize(
+    ("handles", "options"),
+    [
+        ([[5000.0, 0.0]], {"weight": "cressman", "radius": 50.0, "interpolating": True}),
+        ([[5000.0, 0.0]], {"weight": "shepard", "radius": 50.0}),
+        (np.zeros((0, 2)), {"weight": "linear", "radius": 10.0, "interpolating": True}),
+    ],
+    ids=["cressman-far-point", "shepard", "linear-lone-segment"],
+)
+def test_a_point_snapped_onto_a_segment_takes_its_turn(gl, handles, options):
+    """At a point on a segment (snapped to it) a radius weight sees the segment's nodes at
+    their own distances: with alpha 10 the weights' bound (m 2^(-100 / alpha), m a far
+    handle's squared distance or the scaled unit) lay past R, the segment weighed 0 and M
+    was I, where the reference and the points beside it have the segment's quarter turn."""
+    p = np.asarray(handles, float).reshape(-1, 2)
+    v = np.array([[5.0, 0.0], [5.0, 5e-4], [5.0, 2e-3], [2.5, -1e-4]])
+    segments = {"src_segments": SEGMENT, "dst_segments": TURNED}
+    options = options | {"alpha": 10.0, "shape": (1024, 1024)}
+    expected, expected_m, _ = reference.mls(p, p, v, **segments, **options)
+    np.testing.assert_allclose(expected_m, np.broadcast_to(QUARTER, expected_m.shape), atol=1e-6)
+    with glmls.MLS(p, p, ctx=gl, **segments, **options) as m:
+        f = m(v)
+        matrices, _ = m.matrices(v)
+    np.testing.assert_allclose(matrices, expected_m, atol=1e-4)
+    np.testing.assert_allclose(f, expected, atol=1e-4)

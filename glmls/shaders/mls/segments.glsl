@@ -254,7 +254,8 @@ vec3 mls_segment_integrals(MLSAccum a, MLSSegment seg, MLSSegmentView view) {
             float e = exp(mid + half_width * node);
             float dx = c * 0.5 * (e - 1.0 / e);   // c sinh(t), and c cosh(t) below
             float x = xs + dx;
-            float seen = max(view.h2 + x * x, near2);
+            float d2 = view.h2 + x * x;
+            float seen = max(d2, near2);
 #if MLS_SEGMENT_SUPPORT == 2
             vec2 P = start + (from_start + dx) * seg.u;
             vec2 Q = P - a.twice_u;
@@ -262,7 +263,7 @@ vec3 mls_segment_integrals(MLSAccum a, MLSSegment seg, MLSSegmentView view) {
             float excess = mls_excess(dot(P, Q), scale, a.g_o);
             float raw = mls_weight_excess(excess, seen, a.inv_m);
 #else
-            float raw = mls_weight(seen, a.g, a.inv_m, sigma);
+            float raw = mls_weight_seen(d2, seen, a.g, a.inv_m, sigma);
 #endif
             float w = min(raw, MLS_SEGMENT_WEIGHT_CAP) * gw * c * 0.5 * (e + 1.0 / e);
             float y = (xs - view.xc) + dx;   // not x - xc: xs may be far from the foot
