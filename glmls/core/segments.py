@@ -23,12 +23,14 @@ from .config import MLSConfig
 from .handles import as_points, check_coordinates
 
 __all__ = [
+    "SEGMENT_PANEL_WIDTH",
     "SEGMENT_S_FLOOR",
     "as_segments",
     "check_on_segments",
     "polyline_segments",
     "segment_config",
     "segment_feet",
+    "segment_panel_width",
     "segment_pole",
     "segments_interpolate",
     "validate_segments",
@@ -77,6 +79,27 @@ def segment_pole(config: MLSConfig) -> float:
     (2.0, 1.0)
     """
     return segment_config(config).pole
+
+
+#: The GPU's widest Gauss-Legendre panel along a segment (8 nodes), in the variable t of
+#: x = c sinh(t) (glmls/shaders/mls/segments.glsl); steep weights take narrower ones.
+SEGMENT_PANEL_WIDTH = 1.5
+
+
+def segment_panel_width(config: MLSConfig) -> float:
+    """The width of the GPU's panels along a segment for ``config``'s weight: in t the
+    weight's tail falls like e^(-(p - 1) |t|) (p its :func:`segment_pole`), which 8 nodes
+    resolve to ~1e-9 over a panel 12 / (p - 1) wide; :data:`SEGMENT_PANEL_WIDTH` where that
+    is wider (p up to 9). At 1.5, poles of 20 and 40 (idw made interpolating with alpha 5
+    and 10) were integrated to 1.5e-4 and 5.9e-3 only.
+
+    Examples
+    --------
+    >>> segment_panel_width(MLSConfig()), segment_panel_width(MLSConfig(alpha=10.0, s=0.0))
+    (1.5, 0.631578947368421)
+    """
+    pole = segment_pole(config)
+    return SEGMENT_PANEL_WIDTH if pole <= 9.0 else min(SEGMENT_PANEL_WIDTH, 12.0 / (pole - 1.0))
 
 
 def as_segments(segments: object, name: str) -> np.ndarray:

@@ -22,7 +22,12 @@ import numpy as np
 from ..core.config import MLSConfig, image_diagonal, transform_code
 from ..core.handles import Scaling, pack_handles
 from ..core.handleset import HandleSet
-from ..core.segments import segment_config, segment_pole, segments_interpolate
+from ..core.segments import (
+    segment_config,
+    segment_panel_width,
+    segment_pole,
+    segments_interpolate,
+)
 from ..core.weights import GAUSSIAN_CAP, GAUSSIAN_TOLERANCE, RADIUS_WEIGHTS, SUPPORTS
 from ..errors import ReleasedError
 from ..gl.context import GLContext
@@ -511,6 +516,7 @@ class MLSKernel:
             "u_snap_segments": segments_interpolate(snapping),
             "u_hit2_segments": segment_hit2(snapping, scale, self._extent),
             "u_segment_sigma": 1.0 if segments is c else 0.0,
+            "u_segment_panel_width": segment_panel_width(c),
             "u_length_unit": scale,
         }
 

@@ -19,7 +19,7 @@
 //   MLS_SEGMENT_CLOSED   1: idw, alpha 1, not interpolating: J_k in closed form
 //                        0: Gauss-Legendre after the substitution x = c sinh(t), c ~ h, which
 //                           turns the peak of the weight at the foot into a smooth bump
-//                           (Johnston & Elliott 2005), in panels of width <= MLS_PANEL_WIDTH
+//                           (Johnston & Elliott 2005), in panels of width <= u_segment_panel_width
 //   MLS_SEGMENT_SUPPORT  0 everywhere, 1 radius (w = 0 from d = R), 2 gaussian (cut where
 //                        w < exp(-MLS_SEGMENT_GAUSSIAN_CUT) of the nearest handle's)
 uniform int u_segment_count;
@@ -27,7 +27,9 @@ uniform int u_segment_offset;
 uniform float u_length_unit;
 uniform float u_segment_sigma;   // 1, or 0 where idw's s is negligible (glmls.core.segments)
 
-const float MLS_PANEL_WIDTH = 1.5;
+// the panels' width in t (glmls.core.segments.segment_panel_width): 1.5, narrower for a steep
+// weight, whose tail falls like e^(-(pole - 1) |t|)
+uniform float u_segment_panel_width;
 const float MLS_SEGMENT_WEIGHT_CAP = 1.2676506e30;   // 2^100: sums of a few stay finite
 const int MLS_MAX_PANELS = 24;
 // e^-80 of the nearest handle's weight: in a gaussian's far tail the handles apart from the
@@ -243,7 +245,7 @@ vec3 mls_segment_integrals(MLSAccum a, MLSSegment seg, MLSSegmentView view) {
     float near2 = a.m * exp2(-100.0 / u_alpha);
     float t0 = mls_asinh((x0 - xs) / c);
     float t1 = mls_asinh((x1 - xs) / c);
-    int panels = clamp(int(ceil((t1 - t0) / MLS_PANEL_WIDTH)), 1, MLS_MAX_PANELS);
+    int panels = clamp(int(ceil((t1 - t0) / u_segment_panel_width)), 1, MLS_MAX_PANELS);
     float half_width = 0.5 * (t1 - t0) / float(panels);
     vec3 J = vec3(0.0);
     for (int k = 0; k < panels; ++k) {
