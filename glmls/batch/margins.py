@@ -45,7 +45,8 @@ def batch_margins(
             chosen = indices[start : start + SEARCH_IMAGES]
             src, dst = [batch.src[i] for i in chosen], [batch.dst[i] for i in chosen]
             lattices = BatchLattices(config, src, dst, lattice.shape)
-            found = _search(gl, resources, lattices, lattice, frame)
+            handles = list(zip(src, dst, strict=True))
+            found = _search(gl, resources, lattices, lattice, frame, handles)
             for i, (margin, encloses_frame) in zip(chosen, found, strict=True):
                 if not encloses_frame:
                     short[i] = margin
@@ -71,8 +72,10 @@ def _search(
     lattices: BatchLattices,
     lattice: MeshLattice,
     frame: Frame,
+    handles: list[tuple[np.ndarray, np.ndarray]],
 ) -> list[tuple[int, bool]]:
-    """:func:`~glmls.imaging.frame.search_margins` of every image, each step's rings in one
+    """:func:`~glmls.imaging.frame.search_margins` of every image (``handles``: each one's
+    source and target points), each step's rings in one
     :meth:`~glmls.engine.batched.BatchLattices.evaluate_points`."""
     empty = np.zeros((0, 2))
 
@@ -80,4 +83,4 @@ def _search(
         points = [empty if r is None else r for r in rings]
         return lattices.evaluate_points(gl, resources, points, lattice.shape)  # type: ignore[return-value]
 
-    return search_margins(evaluate, len(lattices), lattice, frame)
+    return search_margins(evaluate, len(lattices), lattice, frame, handles=handles)

@@ -39,6 +39,7 @@ __all__ = [
     "encloses_all",
     "make_frame",
     "margin_shortfall",
+    "pulled_margin",
     "real_values",
     "search_margins",
 ]
@@ -364,13 +365,14 @@ def border_margin(
     Derived from the deformation: 0 where the image's own deformed border already encloses
     the frame; else, starting from the border's largest displacement plus the frame's
     overhang past the image, doubled until the deformed border encloses the frame (f is
-    evaluated on the border only). The search stops where the extended mesh would have more
-    than :data:`MARGIN_POINTS` points (or twice the image's and the canvas's pixels
-    together), and as soon as the deformed border's box, growing with the margin twice as
-    fast as it grew so far, could not reach the canvas's box within that budget (a canvas far
-    from the image, a map that collapses the plane); a border whose box then misses the
-    canvas altogether gets no margin. Where the border does not enclose the canvas, the
-    pixels beyond keep the background, with a :class:`~glmls.errors.BorderWarning` where
+    evaluated on the border only); and at least :func:`pulled_margin`, for the plane that
+    handles beyond the image pull over the canvas. The search stops where the extended
+    mesh would have more than :data:`MARGIN_POINTS` points (or twice the image's and the
+    canvas's pixels together), and as soon as the deformed border's box, growing with the
+    margin twice as fast as it grew so far, could not reach the canvas's box within that
+    budget (a canvas far from the image, a map that collapses the plane); a border whose box
+    then misses the canvas altogether gets no margin. Where the border does not enclose the
+    canvas, the pixels beyond keep the background, with a :class:`~glmls.errors.BorderWarning` where
     ``warn`` (the backward methods, which only start Newton there, do not warn).
     ``max_points``: that budget of mesh points instead (at grid 1), for a frame that is not
     drawn pixel by pixel (the first guess of f's inverse at scattered points).
@@ -412,7 +414,32 @@ def _search_margin(
         f, _ = evaluate_points(kernel, ring, with_matrix=False, shape=lattice.shape)
         return [f - offset]
 
-    return search_margins(evaluate, 1, lattice, frame.moved(-offset), max_points)[0]
+    handles = kernel.handles
+    src = np.concatenate([handles.src, handles.src_segments.reshape(-1, 2)])
+    dst = np.concatenate([handles.dst, handles.dst_segments.reshape(-1, 2)]) - offset
+    moved = frame.moved(-offset)
+    return search_margins(evaluate, 1, lattice, moved, max_points, handles=[(src, dst)])[0]
+
+
+def pulled_margin(
+    src: np.ndarray, dst: np.ndarray, shape: tuple[int, int], low: np.ndarray, high: np.ndarray
+) -> float:
+    """How far (pixels) past the image the mesh must reach for the handles that pull the plane
+    beyond it over the canvas: twice the distance past the image of each source handle (or
+    segment end) outside it whose target lies over the canvas's box ``low``..``high``, grown
+    by that distance (f folds the plane about such a handle onto the canvas, where cells
+    before the image's in scan order may show, whatever the image's own border does);
+    0 where none does."""
+    if not len(src):
+        return 0.0
+    height, width = shape
+    past = np.maximum(
+        np.maximum(-0.5 - src[:, 0], src[:, 0] - (width - 0.5)),
+        np.maximum(-0.5 - src[:, 1], src[:, 1] - (height - 0.5)),
+    )
+    grown = past[:, None]
+    over = np.all((dst >= low - grown) & (dst <= high + grown), axis=1) & (past > 0)
+    return 2.0 * float(past[over].max()) if over.any() else 0.0
 
 
 def search_margins(
@@ -421,13 +448,18 @@ def search_margins(
     lattice: MeshLattice,
     frame: Frame,
     max_points: int | None = None,
+    *,
+    handles: list[tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> list[tuple[int, bool]]:
     """:func:`border_margin`'s search for ``count`` maps at once (a batch's images): per map,
     its margin and whether f's image of the margin's border encloses the frame.
     ``evaluate(rings)``: f of each map at its ring of points (pixels, (K, 2); None for a
     map whose search has ended, whose value goes unread), as
     :func:`~glmls.engine.passes.evaluate_points` gives it (float64): one call per step of
-    the search, every map's ring in it."""
+    the search, every map's ring in it. ``handles``: each map's source and target points
+    ((K, 2) each, in the frame's coordinates): the margin reaches at least
+    :func:`pulled_margin` past the image, so that the plane they pull over the canvas is in
+    the mesh whatever the canvas (a larger one would reach it for its own sake)."""
     height, width = as_shape(lattice.shape)
     grid = lattice.grid
     low, high = frame.centre_box(ENCLOSE_PAD)
@@ -447,12 +479,19 @@ def search_margins(
     # with the margin tells whether the budget's reach could ever enclose the frame
     lows, highs = _boxes(deformed)
     seen = [(0, lows[k], highs[k]) for k in range(count)]
+    least = [0] * count
+    if handles is not None:
+        for k, (src, dst) in enumerate(handles):
+            pulled = pulled_margin(src, dst, (height, width), low, high)
+            least[k] = min(reach, _round_up(pulled, grid)) if pulled > 0 else 0
     for k in range(count):
-        if inside[k]:
+        if inside[k] and not least[k]:
             found[k] = (0, True)
+        elif inside[k]:
+            margins[k] = least[k]
         else:
             step = float(moved[k]) if finite[k] else 0.0
-            margins[k] = min(reach, _round_up(step + overhang + 1, grid))
+            margins[k] = max(least[k], min(reach, _round_up(step + overhang + 1, grid)))
     rings: dict[int, np.ndarray] = {}
     while True:
         active = [k for k in range(count) if found[k] is None]

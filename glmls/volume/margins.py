@@ -104,6 +104,9 @@ def search_margins3(
     overhang = np.stack([np.maximum(0.0, -0.5 - low), np.maximum(0.0, high - size + 0.5)], 1)
     budget = max(MARGIN_POINTS3, 2 * (d * h * w + frame.voxels) // grid**3)
     margins = np.zeros((3, 2))
+    if cover:  # the plane that handles beyond the volume pull over the canvas
+        least = grid * np.ceil(_pulled_margins(field, size, grown) / grid)
+        margins = _within(margins, least, size, grid, budget)
     last = None
     # the last round's least margin and the box of its deformed faces: how fast the box
     # grows with the margins tells whether the budget's lattice could ever cover the canvas.
@@ -159,6 +162,28 @@ def search_margins3(
                 return _as_margins(margins), False
         margins = grown_margins
     return _as_margins(margins), not cover
+
+
+def _pulled_margins(field: Field, size: np.ndarray, grown: np.ndarray) -> np.ndarray:
+    """(3, 2) voxels: per side, twice the distance past it of each source handle beyond the
+    volume whose image under f lies over the canvas (``grown``: its box, (axis, low / high)),
+    grown by that distance. f folds the space about such a handle onto the canvas, where
+    cells before the volume's in scan order may show, whatever the volume's own faces do;
+    a larger canvas would reach them for its own sake (the margins search only that the
+    faces' image enclose the canvas)."""
+    sources = np.asarray(field.sources, dtype=np.float64).reshape(-1, 3)
+    past = np.stack([-0.5 - sources, sources - (size - 0.5)], axis=2)  # (N, axis, side)
+    far = past.max(axis=(1, 2))
+    outside = far > 0
+    least = np.zeros((3, 2))
+    if not outside.any():
+        return least
+    images = field.evaluate(sources[outside])
+    reach = far[outside][:, None]
+    over = np.all((images >= grown[:, 0] - reach) & (images <= grown[:, 1] + reach), axis=1)
+    if over.any():
+        least = 2.0 * np.maximum(past[outside][over], 0.0).max(axis=0)
+    return least
 
 
 def _box(images: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -283,9 +283,9 @@ def test_the_margin_is_searched_once_per_upload(gl, monkeypatch):
     calls = []
     search = frames.search_margins
 
-    def counted(evaluate, count, lattice, *args):
+    def counted(evaluate, count, lattice, *args, **keywords):
         calls.extend([lattice.grid] * count)
-        return search(evaluate, count, lattice, *args)
+        return search(evaluate, count, lattice, *args, **keywords)
 
     monkeypatch.setattr(frames, "search_margins", counted)
     monkeypatch.setattr(margins, "search_margins", counted)  # the batch's, every image at once

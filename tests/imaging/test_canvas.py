@@ -300,3 +300,31 @@ def test_two_canvases_show_the_same_pixels_where_they_overlap(gl, method):
                 part = m.warp(source, output_shape=(20, 30), origin=(7, 3), **options)
                 gap = np.abs(whole[8:28, 12:42].astype(np.float64) - part)
                 assert gap.max() <= tolerance, (interpolation, source.dtype, gap.max())
+
+
+# one handle 60 px above a 37 x 53 image pulled onto its middle: the plane above folds over
+# the image, whose own deformed border still encloses the input's frame
+PULLED_SRC = np.array([[26.0, -60.0], [0.0, 36.0], [52.0, 36.0], [0.0, 0.0], [52.0, 0.0]])
+PULLED_DST = PULLED_SRC.copy()
+PULLED_DST[0] = [26.0, 18.0]
+
+
+@pytest.mark.parametrize("border", ["edge", "wrap", "symmetric"])
+@pytest.mark.parametrize(("method", "grid"), [("quads", 1), ("quads", 4), ("backward", 1)])
+def test_the_plane_pulled_over_the_canvas_shows_on_every_canvas(gl, border, method, grid):
+    """With a border mode the cells beyond the image that f folds over the canvas come
+    before the image's in scan order and show on it (the paper's rule on the plane the
+    border extends): on the input's frame as on a canvas three times as large, whose own
+    margin reaches them. The mesh reaches past the handles that pull the plane over the
+    canvas (glmls.imaging.frame.pulled_margin); the input's frame needed no margin for its
+    own border, and showed the image's cells instead on ~370 of its 1,961 pixels."""
+    h, w = 37, 53
+    index = np.arange(h * w, dtype=np.uint16).reshape(h, w)  # each pixel its own index
+    options = {"border": border, "method": method, "grid": grid}
+    with glmls.MLS(PULLED_SRC, PULLED_DST, shape=(h, w), ctx=gl) as m:
+        frame = m.warp(index, **options)
+        large = m.warp(index, output_shape=(3 * h, 3 * w), origin=(-w, -h), **options)
+    np.testing.assert_array_equal(frame, large[h : 2 * h, w : 2 * w])
+    if method == "quads":
+        batch = glmls.warp_batch(index[None], PULLED_SRC[None], PULLED_DST[None], **options)
+        np.testing.assert_array_equal(batch[0], frame)

@@ -83,6 +83,7 @@ class _Counted:
 
     def __init__(self, field):
         self.field = field
+        self.sources = field.sources
         self.calls = 0
 
     def evaluate(self, points):

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from volume_reference import box_handles
 
+import glmls
 from glmls.core.config import MLSConfig
 from glmls.volume import VolumeOptions, bands, construction, warp_volume
 from glmls.volume.fields import ReferenceField
@@ -248,3 +249,22 @@ def test_a_narrow_bump_between_the_samples_keeps_its_cells(kernel3, monkeypatch,
     sliced = warp_volume(m, volume, options=options)
     _uncut(monkeypatch)
     np.testing.assert_array_equal(sliced, warp_volume(m, volume, options=options))
+
+
+@pytest.mark.parametrize("method", ["quads", "backward"])
+def test_the_space_pulled_over_the_canvas_shows_on_every_canvas(gl, method):
+    """As in 2D (tests/imaging/test_canvas.py): a handle 20 voxels above the volume pulled
+    into its middle folds the space above over it; with the edge border those cells come
+    first in scan order and show on the volume's own canvas as on one three times as large
+    (the margins reach past the handle: glmls.volume.margins's _pulled_margins)."""
+    d, h, w = 12, 14, 16
+    index = np.arange(d * h * w, dtype=np.float32).reshape(d, h, w)
+    corners = np.array([[x, y, z] for z in (0, 11) for y in (0, 13) for x in (0, 15)], float)
+    src = np.concatenate([[[8.0, -20.0, 6.0]], corners])
+    dst = src.copy()
+    dst[0] = [8.0, 7.0, 6.0]
+    options = {"border": "edge", "method": method, "interpolation": "nearest"}
+    with glmls.MLS(src, dst, shape=(d, h, w), ctx=gl) as m:
+        own = m.warp(index, **options)
+        large = m.warp(index, output_shape=(3 * d, 3 * h, 3 * w), origin=(-w, -h, -d), **options)
+    np.testing.assert_array_equal(own, large[d : 2 * d, h : 2 * h, w : 2 * w])
