@@ -39,7 +39,7 @@ __all__ = [
     "encloses_all",
     "make_frame",
     "margin_shortfall",
-    "pulled_margin",
+    "pulled_margins",
     "real_values",
     "search_margins",
 ]
@@ -365,7 +365,7 @@ def border_margin(
     Derived from the deformation: 0 where the image's own deformed border already encloses
     the frame; else, starting from the border's largest displacement plus the frame's
     overhang past the image, doubled until the deformed border encloses the frame (f is
-    evaluated on the border only); and at least :func:`pulled_margin`, for the plane that
+    evaluated on the border only); and at least :func:`pulled_margins`, for the plane that
     handles beyond the image pull over the canvas. The search stops where the extended
     mesh would have more than :data:`MARGIN_POINTS` points (or twice the image's and the
     canvas's pixels together), and as soon as the deformed border's box, growing with the
@@ -421,25 +421,39 @@ def _search_margin(
     return search_margins(evaluate, 1, lattice, moved, max_points, handles=[(src, dst)])[0]
 
 
-def pulled_margin(
-    src: np.ndarray, dst: np.ndarray, shape: tuple[int, int], low: np.ndarray, high: np.ndarray
-) -> float:
-    """How far (pixels) past the image the mesh must reach for the handles that pull the plane
-    beyond it over the canvas: twice the distance past the image of each source handle (or
-    segment end) outside it whose target lies over the canvas's box ``low``..``high``, grown
-    by that distance (f folds the plane about such a handle onto the canvas, where cells
-    before the image's in scan order may show, whatever the image's own border does);
-    0 where none does."""
-    if not len(src):
-        return 0.0
+def pulled_margins(
+    handles: list[tuple[np.ndarray, np.ndarray]],
+    shape: tuple[int, int],
+    low: np.ndarray,
+    high: np.ndarray,
+) -> np.ndarray:
+    """(N,) how far (pixels) past the image each of N maps' mesh must reach for the handles
+    that pull the plane beyond the image over the canvas: twice the distance past the image
+    of each source handle (or segment end) outside it whose target lies over the canvas's
+    box ``low``..``high`` grown by that distance (f folds the plane about such a handle onto
+    the canvas, where cells before the image's in scan order may show, whatever the image's
+    own border does); 0 where none does. ``handles``: each map's source and target points,
+    (K, 2) each."""
+    count = len(handles)
+    sizes = [len(src) for src, _ in handles]
+    most = np.zeros(count)
+    if not sum(sizes):
+        return most
+    src = np.concatenate([np.asarray(a, float).reshape(-1, 2) for a, _ in handles])
+    dst = np.concatenate([np.asarray(b, float).reshape(-1, 2) for _, b in handles])
     height, width = shape
     past = np.maximum(
         np.maximum(-0.5 - src[:, 0], src[:, 0] - (width - 0.5)),
         np.maximum(-0.5 - src[:, 1], src[:, 1] - (height - 0.5)),
     )
+    outside = past > 0
+    if not outside.any():  # every handle over the image: the usual case, one test
+        return most
     grown = past[:, None]
-    over = np.all((dst >= low - grown) & (dst <= high + grown), axis=1) & (past > 0)
-    return 2.0 * float(past[over].max()) if over.any() else 0.0
+    over = outside & np.all((dst >= low - grown) & (dst <= high + grown), axis=1)
+    owner = np.repeat(np.arange(count), sizes)
+    np.maximum.at(most, owner[over], 2.0 * past[over])
+    return most
 
 
 def search_margins(
@@ -458,7 +472,7 @@ def search_margins(
     :func:`~glmls.engine.passes.evaluate_points` gives it (float64): one call per step of
     the search, every map's ring in it. ``handles``: each map's source and target points
     ((K, 2) each, in the frame's coordinates): the margin reaches at least
-    :func:`pulled_margin` past the image, so that the plane they pull over the canvas is in
+    :func:`pulled_margins` past the image, so that the plane they pull over the canvas is in
     the mesh whatever the canvas (a larger one would reach it for its own sake)."""
     height, width = as_shape(lattice.shape)
     grid = lattice.grid
@@ -481,8 +495,7 @@ def search_margins(
     seen = [(0, lows[k], highs[k]) for k in range(count)]
     least = [0] * count
     if handles is not None:
-        for k, (src, dst) in enumerate(handles):
-            pulled = pulled_margin(src, dst, (height, width), low, high)
+        for k, pulled in enumerate(pulled_margins(handles, (height, width), low, high)):
             least[k] = min(reach, _round_up(pulled, grid)) if pulled > 0 else 0
     for k in range(count):
         if inside[k] and not least[k]:

@@ -316,7 +316,7 @@ def test_the_plane_pulled_over_the_canvas_shows_on_every_canvas(gl, border, meth
     before the image's in scan order and show on it (the paper's rule on the plane the
     border extends): on the input's frame as on a canvas three times as large, whose own
     margin reaches them. The mesh reaches past the handles that pull the plane over the
-    canvas (glmls.imaging.frame.pulled_margin); the input's frame needed no margin for its
+    canvas (glmls.imaging.frame.pulled_margins); the input's frame needed no margin for its
     own border, and showed the image's cells instead on ~370 of its 1,961 pixels."""
     h, w = 37, 53
     index = np.arange(h * w, dtype=np.uint16).reshape(h, w)  # each pixel its own index
@@ -328,3 +328,18 @@ def test_the_plane_pulled_over_the_canvas_shows_on_every_canvas(gl, border, meth
     if method == "quads":
         batch = glmls.warp_batch(index[None], PULLED_SRC[None], PULLED_DST[None], **options)
         np.testing.assert_array_equal(batch[0], frame)
+
+
+def test_pulled_margins_per_map():
+    """Twice the distance past the image of the handles beyond it whose targets lie over the
+    canvas's box (grown by that distance); 0 for a map without one, whatever its count."""
+    from glmls.imaging.frame import pulled_margins
+
+    low, high = np.array([0.0, 0.0]), np.array([52.0, 36.0])
+    inside = (np.array([[5.0, 5.0]]), np.array([[60.0, 60.0]]))
+    pulled = (PULLED_SRC, PULLED_DST)  # 60 px above (59.5 past the pixels' edge), onto it
+    away = (np.array([[26.0, -60.0]]), np.array([[26.0, -200.0]]))  # pulled further out
+    near = (np.array([[-10.0, 5.0]]), np.array([[-8.0, 5.0]]))  # beside the box, within 9.5
+    empty = (np.zeros((0, 2)), np.zeros((0, 2)))
+    found = pulled_margins([inside, pulled, away, near, empty], (37, 53), low, high)
+    np.testing.assert_allclose(found, [0.0, 119.0, 0.0, 19.0, 0.0])
