@@ -80,6 +80,9 @@ class HandleBins:
     segment_starts: np.ndarray
     segment_list: np.ndarray
     handles: int
+    #: The segment handles (each listed in every bin it reaches: ``segment_list`` repeats
+    #: them), which a visit of every handle walks once each.
+    segment_count: int = 0
 
     @classmethod
     def build(
@@ -123,6 +126,7 @@ class HandleBins:
             segment_starts,
             segment_list,
             len(points) + len(segments),
+            len(segments),
         )
 
     @functools.cached_property
@@ -159,7 +163,7 @@ class HandleBins:
         if not gaussian:
             return (2 + full) * walk + wide + segments + 48
         everything = 2 * (self.handles // 16 + 1) + full * (self.handles // 4 + 1)
-        everything += (2 + full) * len(self.segment_list) + 48
+        everything += (2 + full) * self.segment_count + 48
         loops = (3 + full) * walk + wide + segments + 48
         if bound:
             doublings = min(40, math.ceil(math.log2(2.0 * self.reach / self.near + 1.0)) + 2)

@@ -49,6 +49,7 @@ from .storage import (
     check_storage,
     make_storage,
     resolve_storage,
+    stored_rows,
     unroll_slots,
 )
 
@@ -312,12 +313,15 @@ class MLSKernel:
         return self.scaling.from_gpu(scaled) + self.offset
 
     def _upload(self, packed: np.ndarray, segments: np.ndarray, scaling: Scaling) -> None:
-        rows = len(packed) + len(segments)
         radius = self._radius(None, scaling.scale)
         wanted = self._use_bins(packed, segments, radius, self._bins_request)
         bins = self._plan_bins(packed, segments, radius, wanted)
         binned = bins is not None
-        name = resolve_storage(self._storage_request, self.gl.mgl, rows, binned=binned)
+        # the rows as the storage will hold them (a buffer pads the points to the unrolled
+        # slots), checked here, before anything of the handles' state changes
+        padded = stored_rows("auto", len(packed), len(segments))
+        name = resolve_storage(self._storage_request, self.gl.mgl, padded, binned=binned)
+        rows = stored_rows(name, len(packed), len(segments))
         storage = self._storage
         if storage is None or storage.name != name:
             storage = make_storage(name, self.gl.mgl)
@@ -328,18 +332,28 @@ class MLSKernel:
             what = f"{len(packed)} handles" + (
                 f" and {len(segments) // 2} segments (2 rows each)" if len(segments) else ""
             )
+            padding = rows - len(packed) - len(segments)
+            held = f" ({padding} rows of padding after the points)" if padding else ""
             raise ValueError(
                 f"{what} exceed the {name} handle storage's capacity of {capacity} rows on "
-                f"this GL driver; {capacity_advice(self.gl.mgl, name, rows)}"
+                f"this GL driver{held}; {capacity_advice(self.gl.mgl, name, rows)}"
             )
-        if storage is not self._storage:
-            if self._storage is not None:
-                self._storage.release()
-            self._storage = storage
+        # Nothing of the handles changes unless the upload succeeds: on error the GPU keeps
+        # the handles before, and so does the host (set_handles: "on error nothing changes").
+        before = (self._storage, self._packed, self._segments, self.scaling, self._extent)
+        self._storage = storage
         self._packed, self._segments, self.scaling = packed, segments, scaling
         self._extent = handle_extent(np.concatenate([packed, segments]))
+        try:
+            self._write(radius, bins)
+        except BaseException:
+            if storage is not before[0]:
+                storage.release()
+            self._storage, self._packed, self._segments, self.scaling, self._extent = before
+            raise
+        if before[0] is not None and before[0] is not storage:
+            before[0].release()
         self._memo.clear()
-        self._write(radius, bins)
 
     def memo(self, key: tuple, compute: Callable[[], object]) -> object:
         """``compute()``'s value for ``key``, computed once per upload of the handles: for
@@ -410,13 +424,19 @@ class MLSKernel:
         """Write the packed handles to the storage, sorted by ``bins`` (for ``radius``,
         scaled) where there are bins."""
         packed = self._packed
-        if self._bins is not None:
-            self._bins.release()
-            self._bins = None
+        made = None
         if bins is not None:
             packed = packed[bins.order]
-            self._bins = BinBuffer(self.gl.mgl, bins, radius=radius)  # type: ignore[arg-type]
-        self._storage.upload(packed, self._segments)  # type: ignore[union-attr]
+            made = BinBuffer(self.gl.mgl, bins, radius=radius)  # type: ignore[arg-type]
+        try:
+            self._storage.upload(packed, self._segments)  # type: ignore[union-attr]
+        except BaseException:  # the storage refused them: the bins before stay
+            if made is not None:
+                made.release()
+            raise
+        if self._bins is not None:
+            self._bins.release()
+        self._bins = made
 
     def radius(self, shape: tuple[int, int] | None) -> float | None:
         """R in scaled units for an image of ``shape`` (the kernel's own when None); None

@@ -110,11 +110,16 @@ class MLSKernel3:
                     f"{count} 3D handles (2 rows each) exceed the {name} handle storage's "
                     f"capacity of {capacity} rows on this GL driver; use storage='ssbo'"
                 )
+            try:
+                storage.upload(rows)
+            except BaseException:  # the storage before keeps the handles before
+                if storage is not self._storage:
+                    storage.release()
+                raise
             if storage is not self._storage:
                 if self._storage is not None:
                     self._storage.release()
                 self._storage = storage
-            storage.upload(rows)
         self._rows, self._count, self.scaling, self.offset = rows, count, scaling, shift
         #: The handles' sources p, (N, 3) float64 in their units.
         self.sources = np.array(src, dtype=np.float64).reshape(-1, 3)

@@ -78,6 +78,15 @@ def _rows(
     return data, offset, len(points), len(segment_rows) // 2
 
 
+def stored_rows(name: str, points: int, segment_rows: int) -> int:
+    """The rows storage ``name`` (or ``"auto"``: a buffer's) holds for ``points`` point
+    handles and ``segment_rows`` segment rows: the buffers pad the point handles to the
+    unrolled slots before the segments (:func:`_rows`), the texture does not."""
+    if name == "texture":
+        return points + segment_rows
+    return max(unroll_slots(points), points) + segment_rows
+
+
 def capacities(ctx: moderngl.Context) -> dict[str, int]:
     """The rows each of :data:`STORAGES` holds on ``ctx``'s driver."""
     info = ctx.info
@@ -101,8 +110,8 @@ def capacity_advice(ctx: moderngl.Context, name: str, rows: int) -> str:
 def _check_capacity(ctx: moderngl.Context, name: str, count: int, capacity: int) -> None:
     if count > capacity:
         raise ValueError(
-            f"{count} handles exceed the {name} handle storage's capacity of {capacity} on this "
-            f"GL driver; {capacity_advice(ctx, name, count)}"
+            f"{count} rows of handles exceed the {name} handle storage's capacity of "
+            f"{capacity} rows on this GL driver; {capacity_advice(ctx, name, count)}"
         )
 
 
@@ -273,7 +282,8 @@ def check_storage(storage: object) -> str:
 def resolve_storage(
     storage: str, ctx: moderngl.Context, count: int, *, binned: bool = False
 ) -> str:
-    """``"auto"``: the uniform block where the handles fit (the fastest on llvmpipe at every
+    """``count``: the rows of the handles as a buffer stores them (:func:`stored_rows`).
+    ``"auto"``: the uniform block where the handles fit (the fastest on llvmpipe at every
     count it takes, :doc:`/handles`), else the texture for handles in bins (each lane reads
     its own handles: llvmpipe fetches texels 2x faster than it gathers from a storage
     buffer; 65,536 handles, R = 24 px), else the storage buffer; other names as they are."""

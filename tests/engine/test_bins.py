@@ -157,3 +157,24 @@ def test_automatic_choice_and_bad_options(gl, rng):
         glmls.MLS(p, q, weight="linear", ctx=gl, bins=True)
     with pytest.raises(TypeError, match="bins must be True, False or None"):
         glmls.MLS(p, q, weight="linear", radius=5.0, ctx=gl, bins="yes")
+
+
+def test_a_gaussian_with_many_segments_takes_its_bins(gl):
+    """The fallback that visits every segment walks each segment once (u_segment_count in
+    mls/visit.glsl), not once per bin that lists it: 300 short segments and 400 points of a
+    gaussian of R = 3 on 256^2 crowd no bin (at most 14 segments and 2 points a bin) and take
+    bins where asked, or by themselves, with f as without them."""
+    rng = np.random.default_rng(0)
+    p = rng.uniform(0, 256, (400, 2))
+    q = p + rng.uniform(-2, 2, p.shape)
+    a = rng.uniform(0, 256, (300, 2, 2))
+    a[:, 1] = a[:, 0] + rng.uniform(-8, 8, (300, 2))
+    b = a + rng.uniform(-2, 2, (300, 1, 2))
+    options = {"src_segments": a, "dst_segments": b, "weight": "gaussian", "radius": 3.0}
+    v = rng.uniform(0, 256, (400, 2))
+    with glmls.MLS(p, q, bins=False, ctx=gl, **options) as m:
+        plain = m(v)
+    with glmls.MLS(p, q, bins=None, ctx=gl, **options) as m:
+        assert m.kernel.bins is not None
+    with glmls.MLS(p, q, bins=True, ctx=gl, **options) as m:
+        np.testing.assert_allclose(m(v), plain, atol=2e-4)

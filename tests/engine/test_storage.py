@@ -12,6 +12,7 @@ import glmls
 from glmls import reference
 from glmls.engine.storage import (
     STORAGES,
+    SSBOHandleStorage,
     UBOHandleStorage,
     capacities,
     capacity_advice,
@@ -123,3 +124,54 @@ def test_storage_is_released(gl):
     m.release()
     assert live_textures() == before - 1
     assert_array_equal(m.src, [[0, 0], [5, 5]])
+
+
+def _crowded_segments(count):
+    """``count`` short segments on a grid 8 px apart, and their targets."""
+    i = np.arange(count)
+    x, y = (i % 64) * 8.0, (i // 64) * 8.0
+    a = np.stack([np.stack([x, y], 1), np.stack([x + 4.0, y], 1)], 1)
+    return a, a + [1.0, 0.5]
+
+
+def test_the_padding_of_the_points_counts_against_the_uniform_block(gl):
+    """A buffer pads the point handles to the unrolled slots before the segments' rows:
+    1 point and 2047 segments are 4,095 rows, 4,110 in the uniform block of 4,096. "auto"
+    takes another storage for them (it refused them), and an explicit "ubo" is refused
+    before anything changes: f, the handles and the storage stay those before."""
+    rows = capacities(gl.mgl)["ubo"]
+    a, b = _crowded_segments(rows // 2 - 1)
+    p0 = np.array([[10.0, 10.0], [300.0, 200.0], [100.0, 400.0]])
+    q0 = p0 + [[3.0, 0.0], [0.0, 3.0], [2.0, 2.0]]
+    v = np.array([[50.0, 60.0], [250.0, 250.0], [10.0, 10.0]])
+    segments = {"src_segments": a, "dst_segments": b}
+    with glmls.MLS([[0.3, 0.3]], [[1.3, 1.3]], ctx=gl, **segments) as m:
+        assert m.storage != "ubo"
+        assert np.isfinite(m(v)).all()
+    with glmls.MLS(p0, q0, ctx=gl, storage="ubo") as m:
+        before = m(v)
+        with pytest.raises(ValueError, match=r"rows of padding after the points"):
+            m.set_handles([[0.3, 0.3]], [[1.3, 1.3]], **segments)
+        assert_array_equal(m(v), before)
+        assert_array_equal(m.src, p0)
+        assert m.storage == "ubo"
+
+
+def test_an_upload_that_fails_leaves_the_handles_before(gl, monkeypatch):
+    """Whatever stops the storage's upload, the MLS keeps the handles before, on the host as
+    on the GPU (set_handles: "on error nothing changes")."""
+    p0 = np.array([[10.0, 10.0], [300.0, 200.0], [100.0, 400.0]])
+    q0 = p0 + [[3.0, 0.0], [0.0, 3.0], [2.0, 2.0]]
+    v = np.array([[50.0, 60.0], [250.0, 250.0], [10.0, 10.0]])
+    with glmls.MLS(p0, q0, ctx=gl, storage="ssbo") as m:
+        before = m(v)
+
+        def refuse(*args, **kwargs):
+            raise RuntimeError("out of GPU memory")
+
+        monkeypatch.setattr(SSBOHandleStorage, "upload", refuse)
+        with pytest.raises(RuntimeError, match="out of GPU memory"):
+            m.set_handles(p0 * 2.0, q0 * 2.0)
+        monkeypatch.undo()
+        assert_array_equal(m(v), before)
+        assert_array_equal(m.src, p0)
