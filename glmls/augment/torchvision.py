@@ -85,6 +85,7 @@ from torchvision import tv_tensors  # noqa: E402
 from torchvision.transforms import v2  # noqa: E402
 from torchvision.transforms.v2 import functional as F  # noqa: E402
 
+from ..core.magnitudes import integer_background  # noqa: E402
 from .core import Augment, replay_boxes, replay_images, replay_labels, replay_masks  # noqa: E402
 from .labels import canvas_shape  # noqa: E402
 from .presets import preset_from  # noqa: E402
@@ -158,6 +159,22 @@ def _warpable(array: np.ndarray) -> np.ndarray:
     if array.dtype.kind == "i" or (array.dtype.kind == "u" and array.dtype.itemsize > 2):
         return array.astype(np.float64)
     return array
+
+
+def _check_background(dtype: np.dtype, samples: list[dict]) -> None:
+    """``ValueError`` where a draw's ``background`` is no value of an integer or bool image's
+    own ``dtype``: :func:`_warpable` warps some of them in another dtype (bool as uint8,
+    int16 as float64), whose rule would not be theirs (0.5 on int16, 2 on bool)."""
+    if dtype.kind not in "biu":
+        return
+    for sample in samples:
+        background = sample["options"].get("background", 0.0)
+        values = np.asarray(background, dtype=np.float64).reshape(-1).tolist()
+        if dtype.kind == "b":
+            if not all(v in (0.0, 1.0) for v in values):
+                raise ValueError(f"background {background!r} is not a value of bool (0 or 1)")
+        else:
+            integer_background(values, background, dtype)
 
 
 def _of_dtype(out: np.ndarray, dtype: np.dtype) -> np.ndarray:
@@ -458,6 +475,7 @@ class MLSTransform(v2.Transform):
         """A PIL image deformed, in its mode (a palette image's indices and a bilevel image's
         pixels with nearest sampling, the palette kept; 32-bit integers through float64)."""
         array = np.asarray(image)
+        _check_background(array.dtype, samples)
         if image.mode in ("P", "PA", "1"):  # indices, or a bilevel image's bools: labels
             samples = _nearest(samples)
         out = np.asarray(self.augment.replay([_warpable(array)], samples).images[0])
@@ -482,6 +500,7 @@ class MLSTransform(v2.Transform):
         frames = images.reshape(-1, channels, *images.shape[-2:])  # a video's frames, one draw
         draws = [s for s in samples for _ in range(len(frames) // len(samples))]
         array = np.moveaxis(to_numpy(frames), 1, -1)
+        _check_background(array.dtype, draws)
         if array.dtype.kind == "b":  # a bilevel image, as PIL's mode "1"
             draws = _nearest(draws)
         out = replay_images(self.augment, np.ascontiguousarray(_warpable(array)), draws)

@@ -329,8 +329,9 @@ class MLSKernel:
             capacity = storage.capacity
             if storage is not self._storage:
                 storage.release()
-            what = f"{len(packed)} handles" + (
-                f" and {len(segments) // 2} segments (2 rows each)" if len(segments) else ""
+            points, lines = len(packed), len(segments) // 2
+            what = f"{points} handle{'s' * (points != 1)}" + (
+                f" and {lines} segment{'s' * (lines != 1)} (2 rows each)" if lines else ""
             )
             padding = rows - len(packed) - len(segments)
             held = f" ({padding} rows of padding after the points)" if padding else ""

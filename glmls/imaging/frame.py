@@ -416,7 +416,8 @@ def _search_margin(
 
     handles = kernel.handles
     src = np.concatenate([handles.src, handles.src_segments.reshape(-1, 2)])
-    dst = np.concatenate([handles.dst, handles.dst_segments.reshape(-1, 2)]) - offset
+    # (the kernel's targets are already moved back by the offset: MLSKernel.upload)
+    dst = np.concatenate([handles.dst, handles.dst_segments.reshape(-1, 2)])
     moved = frame.moved(-offset)
     return search_margins(evaluate, 1, lattice, moved, max_points, handles=[(src, dst)])[0]
 

@@ -569,6 +569,28 @@ def test_torchvision_integer_images_of_every_dtype(gl, dtype):
     np.testing.assert_array_equal(out.numpy(), np.rint(exact.numpy()))
 
 
+@pytest.mark.parametrize(
+    ("dtype", "background", "message"),
+    [
+        ("uint8", 0.5, "not a value of uint8"),
+        ("int16", 0.5, "not a value of int16"),  # warped as float64: its own rule all the same
+        ("int32", (1.0, 2.5, 0.0), "not a value of int32"),
+        ("int8", -200.0, r"outside -128\.\.127 of int8"),
+        ("bool", 0.5, r"not a value of bool \(0 or 1\)"),  # warped as uint8: not named so
+    ],
+)
+def test_torchvision_a_background_is_a_value_of_the_image_s_own_dtype(
+    gl, dtype, background, message
+):
+    """The adapter warps some integer dtypes as another (bool as uint8, int16 as float64);
+    a background is checked against the image's own, as glmls.warp checks uint8's."""
+    values = image_tensor(object_image()).expand(len(np.atleast_1d(background)), -1, -1)
+    image = tv_tensors.Image(values.clone().to(getattr(torch, dtype)))
+    transform = MLSTransform("grid", **GRID, warp_options={"background": background})
+    with pytest.raises(ValueError, match=message):
+        transform(image)
+
+
 def test_torchvision_a_bool_image_moves_as_a_bilevel_one(gl):
     """A bool image tensor (torchvision's transforms keep its dtype) moves as PIL's mode "1":
     its pixels with nearest sampling."""

@@ -343,3 +343,22 @@ def test_pulled_margins_per_map():
     empty = (np.zeros((0, 2)), np.zeros((0, 2)))
     found = pulled_margins([inside, pulled, away, near, empty], (37, 53), low, high)
     np.testing.assert_allclose(found, [0.0, 119.0, 0.0, 19.0, 0.0])
+
+
+def test_the_pulled_plane_shows_with_targets_far_from_their_sources(gl):
+    """Every target moved by T = (40000, 30000) and the canvas with them: the same map moved
+    by T (MLSKernel.offset), whose kernel holds the targets moved back by T; the pulled
+    plane shows there as near the sources (it was left out where T was taken off twice)."""
+    h, w = 37, 53
+    index = np.arange(h * w, dtype=np.uint16).reshape(h, w)
+    src = np.concatenate([PULLED_SRC, [[-30.0, -60.0]]])
+    dst = np.concatenate([PULLED_DST, [[-30.0, -60.0]]])
+    far = np.array([40000.0, 30000.0])
+    options = {"border": "edge", "method": "quads", "grid": 1}
+    with glmls.MLS(src, dst, shape=(h, w), ctx=gl) as m:
+        near = m.warp(index, **options)
+    with glmls.MLS(src, dst + far, shape=(h, w), ctx=gl) as m:
+        moved = m.warp(index, output_shape=(h, w), origin=tuple(far), **options)
+        large = m.warp(index, output_shape=(3 * h, 3 * w), origin=tuple(far - [w, h]), **options)
+    np.testing.assert_array_equal(moved, near)
+    np.testing.assert_array_equal(large[h : 2 * h, w : 2 * w], near)
