@@ -29,7 +29,7 @@ from ..core.config import MLSConfig
 from ..core.handles3 import as_points3
 from ..files.atomic import atomic_write
 from ..files.json_out import write_json
-from ..files.meshes import MESH_SUFFIXES, read_mesh, write_mesh
+from ..files.meshes import MESH_SUFFIXES, read_mesh_and_unkept, unwritten, write_mesh
 from ..files.volumes import volume_suffix
 from ..mls import MLS
 from .analyze_volume import check_reference_3d, read_reference_3d
@@ -106,7 +106,7 @@ def run_mesh(args: argparse.Namespace) -> int:
     pictures = (("--analysis-grid", args.analysis_grid, 1), ("--cmap", args.cmap, "viridis"))
     refuse_sampling_options(args, pictures)
     config = _check_radius(config_from_args(args))
-    mesh = read_mesh(args.input)
+    mesh, unkept = read_mesh_and_unkept(args.input)
     try:  # vertices beyond the GPU's coordinate range: refused before any work, as by warp
         as_points3(mesh.vertices, "mesh vertices")
     except ValueError as error:
@@ -172,6 +172,9 @@ def run_mesh(args: argparse.Namespace) -> int:
         # keeps its shading, and a file gains no normals its input did not have
         normals=None if mesh.normals is None else deformed.normals,
     )
+    unkept = (*unwritten(paths[2], mesh), *unkept)
+    if unkept:  # as glmls warp names them
+        say(args, f"analyze: {paths[2]} does not carry the input's {', '.join(unkept)}")
     for path in paths:
         print(path)
     field_stats, det = summary["error_field"], summary["jacobians"]["det"]

@@ -225,9 +225,13 @@ def _texture(
 def _colors(rows: list[list[str]], places: list[int], unkept: dict[str, None]) -> np.ndarray | None:
     """The (V, 3) or (V, 4) uint8 colours of the ``v`` lines' ``rows`` (of the file's lines
     ``places``), where every one has 6 numbers or every one 7; else None, and the colours of
-    some named in ``unkept`` (a 4th number alone is a weight, not a colour)."""
+    some named in ``unkept`` (a 4th number alone is a weight, not a colour: named there
+    where one is not 1)."""
     widths = {len(row) for row in rows}
     if widths <= {3, 4}:
+        weights = [row[3] for row in rows if len(row) == 4]
+        if weights and (_numbers([weights], places[:1], "vertex weight") != 1.0).any():
+            unkept["vertex weights (w)"] = None  # a rational curve's: 1 by default
         return None
     if widths not in ({6}, {7}):
         unkept["vertex colours (not on every vertex alike)"] = None

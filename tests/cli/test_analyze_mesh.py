@@ -218,3 +218,18 @@ def test_the_reference_file_may_give_its_own_tetrahedra(inputs, capsys):
     own = tetrahedron_errors(m, REFERENCE, tetrahedra=[[0, 2, 4, 1], [1, 3, 5, 0]]).stats()
     assert summary["tetrahedra"]["tetrahedra"] == own["tetrahedra"] == 2
     assert_allclose(summary["tetrahedra"]["distance"]["mean"], own["distance"]["mean"], rtol=1e-4)
+
+
+def test_deformed_ply_names_what_it_does_not_carry(inputs, capsys):
+    """A seam's texture coordinates (vertex 2 has vt 2 in one face and vt 5 in the other)
+    have no place in deformed.ply (one per vertex): analyze names them, as glmls warp does."""
+    (inputs / "seam.obj").write_text(
+        "v 20 20 20\nv 44 20 20\nv 20 44 20\nv 44 44 20\n"
+        "vt 0 0\nvt 1 0\nvt 0 1\nvt 1 1\nvt 0.5 0.5\nf 1/1 2/2 3/3\nf 2/5 4/4 3/3\n"
+    )
+    assert main(["analyze", "seam.obj", "--handles", "h3.json", "--out", "rep"]) == 0
+    lines = [x for x in capsys.readouterr().err.splitlines() if "carry" in x]
+    assert lines == [
+        "analyze: rep/deformed.ply does not carry the input's texture coordinates (a vertex "
+        "has several, at seams: PLY holds one per vertex)"
+    ]

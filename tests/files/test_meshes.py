@@ -400,3 +400,27 @@ def test_stl_merges_the_corners_at_any_scale_in_the_order_they_come(tmp_path, ra
     first = list(dict.fromkeys(mesh.faces.ravel().tolist()))  # the vertices as corners name them
     assert_array_equal(back.vertices, vertices[first].astype(np.float32))
     assert_array_equal(np.array(first)[back.faces], mesh.faces)
+
+
+def test_an_obj_vertex_weight_is_named_where_it_is_not_1(tmp_path):
+    """``v x y z w``: a rational curve's weight, 1 by default, which a mesh does not keep."""
+    from glmls.files.meshes import read_mesh_and_unkept
+
+    (tmp_path / "w.obj").write_text("v 0 0 0 2\nv 1 0 0 2\nv 0 1 0 2\nf 1 2 3\n")
+    (tmp_path / "one.obj").write_text("v 0 0 0 1\nv 1 0 0 1.0\nv 0 1 0\nf 1 2 3\n")
+    mesh, unkept = read_mesh_and_unkept(tmp_path / "w.obj")
+    assert_array_equal(mesh.vertices, [[0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    assert unkept == ("vertex weights (w)",)
+    assert read_mesh_and_unkept(tmp_path / "one.obj")[1] == ()
+
+
+def test_a_ply_property_declared_twice_is_refused(tmp_path):
+    """Which column would be x? Refused, naming the element and the property."""
+    (tmp_path / "dup.ply").write_text(
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float x\n"
+        "property float y\nproperty float z\nelement face 1\n"
+        "property list uchar int vertex_indices\nend_header\n"
+        "0 9 0 0\n1 9 0 0\n0 9 1 0\n3 0 1 2\n"
+    )
+    with pytest.raises(InputFileError, match="element 'vertex' declares property 'x' twice"):
+        read_mesh(tmp_path / "dup.ply")
