@@ -90,8 +90,8 @@ def segment_panel_width(config: MLSConfig) -> float:
     """The width of the GPU's panels along a segment for ``config``'s weight: in t the
     weight's tail falls like e^(-(p - 1) |t|) (p its :func:`segment_pole`), which 8 nodes
     resolve to ~1e-9 over a panel 12 / (p - 1) wide; :data:`SEGMENT_PANEL_WIDTH` where that
-    is wider (p up to 9). At 1.5, poles of 20 and 40 (idw made interpolating with alpha 5
-    and 10) were integrated to 1.5e-4 and 5.9e-3 only.
+    is wider (p up to 9). Panels 1.5 wide would integrate poles of 20 and 40 (idw made
+    interpolating with alpha 5 and 10) to 1.5e-4 and 5.9e-3 only.
 
     Examples
     --------

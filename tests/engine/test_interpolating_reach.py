@@ -78,9 +78,10 @@ QUARTER = np.array([[0.0, 1.0], [-1.0, 0.0]])  # its M (row vectors)
 )
 def test_a_point_snapped_onto_a_segment_takes_its_turn(gl, handles, options):
     """At a point on a segment (snapped to it) a radius weight sees the segment's nodes at
-    their own distances: with alpha 10 the weights' bound (m 2^(-100 / alpha), m a far
-    handle's squared distance or the scaled unit) lay past R, the segment weighed 0 and M
-    was I, where the reference and the points beside it have the segment's quarter turn."""
+    their own distances, not at the weights' bound (m 2^(-100 / alpha), m a far handle's
+    squared distance or the scaled unit), which at alpha 10 lies past R and would weigh the
+    segment 0 (M = I): M is the segment's quarter turn, as the reference and the points
+    beside it have it."""
     p = np.asarray(handles, float).reshape(-1, 2)
     v = np.array([[5.0, 0.0], [5.0, 5e-4], [5.0, 2e-3], [2.5, -1e-4]])
     segments = {"src_segments": SEGMENT, "dst_segments": TURNED}

@@ -1,9 +1,9 @@
 """Segment handles under a steep weight (idw made interpolating, alpha 5 to 10: poles of 20
 to 40), on the GPU against the float64 reference: the panels along a segment narrow with the
 pole (glmls.core.segments.segment_panel_width), whose tail falls like e^(-(pole - 1) |t|) in
-the quadrature's variable t; at the width of gentle weights, 1.5, the integrals were off by
-1.5e-4 (pole 20) and 5.9e-3 (pole 40), and f by up to 0.65 px (affine, the handles in reach
-near a line, which magnifies them).
+the quadrature's variable t; at the width of gentle weights, 1.5, the integrals would be off
+by 1.5e-4 (pole 20) and 5.9e-3 (pole 40), and f by up to 0.65 px (affine, the handles in
+reach near a line, which magnifies them).
 
 Tolerance: 0.01 px, the segments' documented accuracy (docs/segments.md).
 """

@@ -137,7 +137,7 @@ def _crowded_segments(count):
 def test_the_padding_of_the_points_counts_against_the_uniform_block(gl):
     """A buffer pads the point handles to the unrolled slots before the segments' rows:
     1 point and 2047 segments are 4,095 rows, 4,110 in the uniform block of 4,096. "auto"
-    takes another storage for them (it refused them), and an explicit "ubo" is refused
+    takes another storage for them, and an explicit "ubo" is refused
     before anything changes: f, the handles and the storage stay those before."""
     rows = capacities(gl.mgl)["ubo"]
     a, b = _crowded_segments(rows // 2 - 1)

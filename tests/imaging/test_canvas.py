@@ -316,8 +316,9 @@ def test_the_plane_pulled_over_the_canvas_shows_on_every_canvas(gl, border, meth
     before the image's in scan order and show on it (the paper's rule on the plane the
     border extends): on the input's frame as on a canvas three times as large, whose own
     margin reaches them. The mesh reaches past the handles that pull the plane over the
-    canvas (glmls.imaging.frame.pulled_margins); the input's frame needed no margin for its
-    own border, and showed the image's cells instead on ~370 of its 1,961 pixels."""
+    canvas (glmls.imaging.frame.pulled_margins), though the input's frame needs no margin
+    for its own border: without them it would show the image's cells on ~370 of its 1,961
+    pixels."""
     h, w = 37, 53
     index = np.arange(h * w, dtype=np.uint16).reshape(h, w)  # each pixel its own index
     options = {"border": border, "method": method, "grid": grid}
@@ -348,7 +349,8 @@ def test_pulled_margins_per_map():
 def test_the_pulled_plane_shows_with_targets_far_from_their_sources(gl):
     """Every target moved by T = (40000, 30000) and the canvas with them: the same map moved
     by T (MLSKernel.offset), whose kernel holds the targets moved back by T; the pulled
-    plane shows there as near the sources (it was left out where T was taken off twice)."""
+    plane shows there as near the sources (the kernel's targets are already less T: taken
+    off twice, they would miss the canvas)."""
     h, w = 37, 53
     index = np.arange(h * w, dtype=np.uint16).reshape(h, w)
     src = np.concatenate([PULLED_SRC, [[-30.0, -60.0]]])
