@@ -45,11 +45,8 @@ from .loops import (
 )
 from .storage import (
     HandleStorage,
-    capacity_advice,
     check_storage,
-    make_storage,
-    resolve_storage,
-    stored_rows,
+    storage_for,
     unroll_slots,
 )
 
@@ -316,29 +313,14 @@ class MLSKernel:
         radius = self._radius(None, scaling.scale)
         wanted = self._use_bins(packed, segments, radius, self._bins_request)
         bins = self._plan_bins(packed, segments, radius, wanted)
-        binned = bins is not None
-        # the rows as the storage will hold them (a buffer pads the points to the unrolled
-        # slots), checked here, before anything of the handles' state changes
-        padded = stored_rows("auto", len(packed), len(segments))
-        name = resolve_storage(self._storage_request, self.gl.mgl, padded, binned=binned)
-        rows = stored_rows(name, len(packed), len(segments))
-        storage = self._storage
-        if storage is None or storage.name != name:
-            storage = make_storage(name, self.gl.mgl)
-        if rows > storage.capacity:
-            capacity = storage.capacity
-            if storage is not self._storage:
-                storage.release()
-            points, lines = len(packed), len(segments) // 2
-            what = f"{points} handle{'s' * (points != 1)}" + (
-                f" and {lines} segment{'s' * (lines != 1)} (2 rows each)" if lines else ""
-            )
-            padding = rows - len(packed) - len(segments)
-            held = f" ({padding} rows of padding after the points)" if padding else ""
-            raise ValueError(
-                f"{what} exceed the {name} handle storage's capacity of {capacity} rows on "
-                f"this GL driver{held}; {capacity_advice(self.gl.mgl, name, rows)}"
-            )
+        counts = (len(packed), len(segments))
+        storage = storage_for(
+            self._storage_request,
+            self.gl.mgl,
+            *counts,
+            binned=bins is not None,
+            current=self._storage,
+        )
         # Nothing of the handles changes unless the upload succeeds: on error the GPU keeps
         # the handles before, and so does the host (set_handles: "on error nothing changes").
         before = (self._storage, self._packed, self._segments, self.scaling, self._extent)
@@ -424,11 +406,8 @@ class MLSKernel:
     def _write(self, radius: float | None, bins: HandleBins | None) -> None:
         """Write the packed handles to the storage, sorted by ``bins`` (for ``radius``,
         scaled) where there are bins."""
-        packed = self._packed
-        made = None
-        if bins is not None:
-            packed = packed[bins.order]
-            made = BinBuffer(self.gl.mgl, bins, radius=radius)  # type: ignore[arg-type]
+        packed = self._packed if bins is None else self._packed[bins.order]
+        made = None if bins is None else BinBuffer(self.gl.mgl, bins, radius=radius)  # type: ignore[arg-type]
         try:
             self._storage.upload(packed, self._segments)  # type: ignore[union-attr]
         except BaseException:  # the storage refused them: the bins before stay

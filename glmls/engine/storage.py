@@ -294,6 +294,40 @@ def resolve_storage(
     return "texture" if binned else "ssbo"
 
 
+def storage_for(
+    request: str,
+    ctx: moderngl.Context,
+    points: int,
+    segment_rows: int,
+    *,
+    binned: bool,
+    current: HandleStorage | None,
+) -> HandleStorage:
+    """The storage that holds ``points`` point handles and ``segment_rows`` segment rows as
+    ``request`` asks (``auto``: :func:`resolve_storage`): ``current`` where it is of that
+    kind, else a new one; ``ValueError`` naming the handles, the rows and the padding where
+    they do not fit (a new storage released first), before anything of them is uploaded."""
+    padded = stored_rows("auto", points, segment_rows)
+    name = resolve_storage(request, ctx, padded, binned=binned)
+    rows = stored_rows(name, points, segment_rows)
+    storage = current if current is not None and current.name == name else make_storage(name, ctx)
+    if rows <= storage.capacity:
+        return storage
+    capacity = storage.capacity
+    if storage is not current:
+        storage.release()
+    lines = segment_rows // 2
+    what = f"{points} handle{'s' * (points != 1)}" + (
+        f" and {lines} segment{'s' * (lines != 1)} (2 rows each)" if lines else ""
+    )
+    padding = rows - points - segment_rows
+    held = f" ({padding} rows of padding after the points)" if padding else ""
+    raise ValueError(
+        f"{what} exceed the {name} handle storage's capacity of {capacity} rows on this GL "
+        f"driver{held}; {capacity_advice(ctx, name, rows)}"
+    )
+
+
 def make_storage(storage: str, ctx: moderngl.Context) -> HandleStorage:
     """A new, empty handle storage of kind ``storage`` (one of :data:`STORAGES`)."""
     if check_storage(storage) == "auto":

@@ -431,7 +431,7 @@ def pulled_margins(
     """(N,) how far (pixels) past the image each of N maps' mesh must reach for the handles
     that pull the plane beyond the image over the canvas: twice the distance past the image
     of each source handle (or segment end) outside it whose target lies over the canvas's
-    box ``low``..``high`` grown by that distance (f folds the plane about such a handle onto
+    box from ``low`` to ``high`` grown by that distance (f folds the plane about such a handle onto
     the canvas, where cells before the image's in scan order may show, whatever the image's
     own border does); 0 where none does. ``handles``: each map's source and target points,
     (K, 2) each."""
