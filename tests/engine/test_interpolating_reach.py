@@ -25,15 +25,24 @@ MOVE2 = np.array([3.0, -2.0])
 MOVE3 = np.array([3.0, -2.0, 1.0])
 
 
+def _one_in_reach(move, far, weight, alpha, v):
+    """Handles at 10 (every coordinate) moved by ``move`` and ``far`` px along x kept, the
+    options of a radius weight of R = 3 made interpolating, and the reference's f at ``v``:
+    the translation by ``move``."""
+    p = np.full((2, len(move)), 10.0)
+    p[1, 0] += far
+    q = p + [move, np.zeros_like(move)]
+    options = {"weight": weight, "radius": 3.0, "interpolating": True, "alpha": alpha}
+    expected, _, _ = reference.mls(p, q, v, **options)
+    np.testing.assert_allclose(expected, v + move, atol=1e-9)
+    return p, q, options, expected
+
+
 @pytest.mark.parametrize("weight", RADIUS_WEIGHTS)
 @pytest.mark.parametrize(("far", "alpha"), [(42.0, 8.0), (500.0, 4.0), (5e5, 1.5), (5e5, 10.0)])
 def test_one_handle_in_reach_translates_2d(gl, weight, far, alpha):
-    p = np.array([[10.0, 10.0], [10.0 + far, 10.0]])
-    q = p + [MOVE2, [0.0, 0.0]]
     v = np.array([[11.0, 10.0], [10.0, 12.0], [10.3, 9.6], [12.5, 10.5]])
-    options = {"weight": weight, "radius": 3.0, "interpolating": True, "alpha": alpha}
-    expected, _, _ = reference.mls(p, q, v, **options)
-    np.testing.assert_allclose(expected, v + MOVE2, atol=1e-9)
+    p, q, options, expected = _one_in_reach(MOVE2, far, weight, alpha, v)
     with glmls.MLS(p, q, ctx=gl, **options) as m:
         f = m(v)
         matrices, translations = m.matrices(v)
@@ -46,12 +55,8 @@ def test_one_handle_in_reach_translates_2d(gl, weight, far, alpha):
 @pytest.mark.parametrize("weight", RADIUS_WEIGHTS)
 @pytest.mark.parametrize(("far", "alpha"), [(50.0, 8.0), (5e5, 1.5), (5e5, 10.0)])
 def test_one_handle_in_reach_translates_3d(gl, weight, far, alpha):
-    p = np.array([[10.0, 10.0, 10.0], [10.0 + far, 10.0, 10.0]])
-    q = p + [MOVE3, [0.0, 0.0, 0.0]]
     v = np.array([[11.0, 10.0, 10.0], [10.5, 10.5, 10.5], [10.0, 10.0, 12.0]])
-    options = {"weight": weight, "radius": 3.0, "interpolating": True, "alpha": alpha}
-    expected, _, _ = reference.mls(p, q, v, **options)
-    np.testing.assert_allclose(expected, v + MOVE3, atol=1e-9)
+    p, q, options, expected = _one_in_reach(MOVE3, far, weight, alpha, v)
     with glmls.MLS(p, q, ctx=gl, **options) as m:
         f = m(v)
         _, jacobian = m.jacobian(v)
