@@ -134,9 +134,11 @@ def _header(content: bytes) -> tuple[str, list[_Element], int]:
             elements[-1].properties.append(_Property(words[2], _scalar(words[1])))
         else:
             raise ValueError(f"a header line PLY does not have: {raw.strip()[:60]!r}")
-        names = [p.name for p in elements[-1].properties] if elements else []
-        if len(set(names)) < len(names):  # which column is x? (the last read would win)
-            raise ValueError(f"element {elements[-1].name!r} declares property {names[-1]!r} twice")
+    for element in elements:  # which column is x? (the last read would win)
+        names = [p.name for p in element.properties]
+        twice = next((name for k, name in enumerate(names) if name in names[:k]), None)
+        if twice is not None:
+            raise ValueError(f"element {element.name!r} declares property {twice!r} twice")
     if order is None:
         raise ValueError("no 'format ascii|binary_little_endian|binary_big_endian 1.0' line")
     return order, elements, start + 1
