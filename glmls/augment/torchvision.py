@@ -170,11 +170,7 @@ def _check_background(dtype: np.dtype, samples: list[dict]) -> None:
     for sample in samples:
         background = sample["options"].get("background", 0.0)
         values = np.asarray(background, dtype=np.float64).reshape(-1).tolist()
-        if dtype.kind == "b":
-            if not all(v in (0.0, 1.0) for v in values):
-                raise ValueError(f"background {background!r} is not a value of bool (0 or 1)")
-        else:
-            integer_background(values, background, dtype)
+        integer_background(values, background, dtype)
 
 
 def _of_dtype(out: np.ndarray, dtype: np.dtype) -> np.ndarray:

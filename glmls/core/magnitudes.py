@@ -92,22 +92,27 @@ def scaled_up(out: np.ndarray, exponent: int) -> np.ndarray:
     return out
 
 
-def integer_background(values: list[float], background: object, dtype: np.dtype) -> list[float]:
-    """The float ``values`` of ``background`` for an array of integer ``dtype``:
-    ``ValueError`` naming ``background`` where a value is no value of the dtype (outside its
-    range, or not a whole number: 1.5 has no nearest uint8 to pick without a rounding rule
-    the caller did not ask for). The integer images and volumes that glmls warps are uint8
-    and uint16, whose values float32 holds exactly."""
-    info = np.iinfo(dtype)
+def integer_background(
+    values: list[float], background: object, dtype: np.dtype, *, name: object = None
+) -> list[float]:
+    """The float ``values`` of ``background`` for an array of integer or bool ``dtype``:
+    ``ValueError`` naming ``background`` (after ``name:`` where given, a file's name) where a
+    value is no value of the dtype: NaN, outside its range (0..1 for bool), or not a whole
+    number (1.5 has no nearest uint8 to pick without a rounding rule the caller did not ask
+    for). The integer images and volumes that glmls warps are uint8 and uint16, whose values
+    float32 holds exactly."""
+    dtype = np.dtype(dtype)
+    low, high = (0, 1) if dtype == np.bool_ else (np.iinfo(dtype).min, np.iinfo(dtype).max)
+    prefix = "" if name is None else f"{name}: "
     for value in values:
-        if not info.min <= value <= info.max:
+        if not low <= value <= high:
             raise ValueError(
-                f"background {background!r} is outside {info.min}..{info.max} of {dtype}"
+                f"{prefix}background {background!r} is outside {low}..{high} of {dtype}"
             )
         if value != math.floor(value):
             raise ValueError(
-                f"background {background!r} is not a value of {dtype}: {value:g} is no whole "
-                f"number (give one of {info.min}..{info.max})"
+                f"{prefix}background {background!r} is not a value of {dtype}: {value:g} is "
+                f"no whole number (give one of {low}..{high})"
             )
     return [float(value) for value in values]
 

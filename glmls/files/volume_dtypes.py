@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from ..core.magnitudes import value_exponent
+from ..core.magnitudes import integer_background, value_exponent
 
 __all__ = ["WARPED_AS_IS", "check_file_background", "in_dtype", "warped_as"]
 
@@ -69,12 +69,7 @@ def check_file_background(background: float | tuple[float, ...], dtype: np.dtype
     volume's beside its values)."""
     values = background if isinstance(background, tuple) else (background,)
     dtype = np.dtype(dtype)
-    if dtype == np.bool_:
-        low, high = 0.0, 1.0
-    elif dtype.kind in "iu":
-        info = np.iinfo(dtype)
-        low, high = float(info.min), float(info.max)
-    else:
+    if dtype.kind not in "biu":
         top = float(np.finfo(dtype).max)
         if dtype != np.float64:  # float64 may be warped as it is (warped_as), the others not
             top = min(top, _FLOAT32_MAX)
@@ -83,15 +78,7 @@ def check_file_background(background: float | tuple[float, ...], dtype: np.dtype
                 f"{name}: background {background!r} is beyond the range of {dtype} (±{top:.4g})"
             )
         return
-    if not all(low <= v <= high for v in values):
-        raise ValueError(
-            f"{name}: background {background!r} is outside {low:g}..{high:g} of {dtype}"
-        )
-    if any(v != math.floor(v) for v in values):
-        raise ValueError(
-            f"{name}: background {background!r} is not a value of {dtype} (a whole number "
-            f"in {low:g}..{high:g})"
-        )
+    integer_background([float(v) for v in values], background, dtype, name=name)
     for value in values:
         # what the warp writes (float32, then back in the dtype) against the value itself
         written = in_dtype(np.array([value], np.float32), dtype)[0]

@@ -576,7 +576,8 @@ def test_torchvision_integer_images_of_every_dtype(gl, dtype):
         ("int16", 0.5, "not a value of int16"),  # warped as float64: its own rule all the same
         ("int32", (1.0, 2.5, 0.0), "not a value of int32"),
         ("int8", -200.0, r"outside -128\.\.127 of int8"),
-        ("bool", 0.5, r"not a value of bool \(0 or 1\)"),  # warped as uint8: not named so
+        # warped as uint8, and not named so
+        ("bool", 0.5, r"not a value of bool: 0\.5 is no whole number \(give one of 0\.\.1\)"),
     ],
 )
 def test_torchvision_a_background_is_a_value_of_the_image_s_own_dtype(

@@ -288,10 +288,10 @@ def test_floats_beyond_float32_are_kept_for_the_warp_and_infinities_kept(dtype):
     [
         (np.nan, np.int16, r"outside -32768\.\.32767 of int16"),
         (40000.0, np.int16, r"outside -32768\.\.32767 of int16"),
-        ((0.0, -1.0), np.uint32, r"outside 0\.\.4\.29497e\+09 of uint32"),
+        ((0.0, -1.0), np.uint32, r"outside 0\.\.4294967295 of uint32"),
         (2.0, np.bool_, r"outside 0\.\.1 of bool"),
-        (0.5, np.bool_, r"not a value of bool \(a whole number in 0\.\.1\)"),
-        ((1.0, 2.5), np.uint16, r"not a value of uint16 \(a whole number in 0\.\.65535\)"),
+        (0.5, np.bool_, r"not a value of bool: 0\.5 is no whole number \(give one of 0\.\.1\)"),
+        ((1.0, 2.5), np.uint16, r"not a value of uint16: 2\.5 is no whole number"),
         (1e5, np.float16, r"beyond the range of float16"),
         (1e39, np.float32, r"beyond the range of float32 \(±3\.403e\+38\)"),
         (2.0**24 + 1, np.int32, r"float32 \(the GPU's\) would round 16777217 to 16777216"),
