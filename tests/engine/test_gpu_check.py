@@ -96,3 +96,19 @@ def test_every_option_given_to_a_script_is_one_it_takes():
         assert helps[name].startswith("usage:"), (name, helps[name][:200])
         unknown = options - set(OPTION.findall(helps[name]))
         assert not unknown, f"{name} does not take {sorted(unknown)}"
+
+
+def test_the_steps_caps_leave_the_tests_time_within_the_budget():
+    """The benchmarks run first, within their own caps; the GL tests get what they leave, less
+    the steps after them (the reserve): a cap raised past the budget would leave the tests
+    no time on a machine whose benchmarks take their caps."""
+    text = GPU_CHECK.read_text()
+    budget = int(re.search(r"budget=\$\{GPU_CHECK_BUDGET:-(\d+)\}", text)[1])
+    caps = {name: int(cap) for name, cap in re.findall(r"^\s*step ([\w-]+) (\d+) ", text, re.M)}
+    reserve = int(re.search(r"tests_limit=\$\(\(budget - SECONDS - (\d+)\)\)", text)[1])
+    after = ("tests-failed-alone", "shaders")
+    assert set(after) <= set(caps) and "tests" not in caps
+    assert sum(caps[name] for name in after) <= reserve
+    before = sum(cap for name, cap in caps.items() if name not in after)
+    assert budget - before - reserve >= 150, (budget, before, reserve)
+    assert text.index("step gl-stages") < text.index("step tests ")
