@@ -6,9 +6,10 @@ different vertex in each lane).
 The mesh of pixel corners has one vertex more per side than the image has pixels: at the GL
 texture limit (an image exactly ``GL_MAX_TEXTURE_SIZE`` pixels wide or high, or less with a
 border mode's margin) it no longer fits one texture's row or column. A band never has more
-rows than a texture holds (:meth:`MeshBands.rows_per_band`); a mesh wider than a texture
-(:meth:`MeshBands.fits_texture`) is drawn by the passes that read the mesh buffer itself
-(the GL rasterizer's, :mod:`.raster`).
+rows than a texture holds (:meth:`MeshBands.rows_per_band`); the passes read a mesh wider
+than a texture (:meth:`MeshBands.fits_texture`) from the mesh buffer itself
+(:meth:`MeshBands.bind_mesh`, ``warp/mesh_fetch.glsl``), so that such an image's pixels are
+the compute scan's, as any other image's and a batch's.
 """
 
 from __future__ import annotations
@@ -59,6 +60,22 @@ class MeshBands:
     def buffer(self) -> moderngl.Buffer:
         """The mesh buffer (after a band was evaluated)."""
         return self._resources.cached("mesh")
+
+    def bind_mesh(self, lattice: MeshLattice, dims: tuple[int, int]) -> None:
+        """The band just evaluated (``dims`` as yielded) bound where the passes that read it
+        at random find it (``warp/mesh_fetch.glsl``): copied into the mesh texture
+        (:meth:`texture`), or, where a row of ``lattice`` does not fit a texture
+        (:meth:`fits_texture`; their programs take :meth:`mesh_defines`), the mesh buffer
+        itself, bound to ``DEFORMED``."""
+        if self.fits_texture(lattice):
+            self.texture(dims)
+        else:
+            self.buffer.bind_to_storage_buffer(bindings.DEFORMED.index)
+
+    def mesh_defines(self, lattice: MeshLattice) -> dict[str, bool]:
+        """The defines of the programs that read ``lattice``'s bands as :meth:`bind_mesh`
+        binds them."""
+        return {"WARP_MESH_BUFFER": not self.fits_texture(lattice)}
 
     def texture(self, dims: tuple[int, int]) -> moderngl.Texture:
         """The band just evaluated (``dims``: points per row, rows, as yielded) copied on the

@@ -2,9 +2,9 @@
 (``glmls/shaders/warp/cells.comp.glsl``): the GL rasterizer's job without its per-triangle setup
 (~0.25 us per triangle on llvmpipe: 0.5 s for the 2 million triangles of a 1024^2 image at
 grid 1). It needs a viewport of the output canvas's size; other viewports, and keys too long for
-31 bits or meshes wider than a GL texture (the corners of an image as wide as the GL limit,
-:meth:`~glmls.imaging.bands.MeshBands.fits_texture`), take the rasterizer
-(:mod:`glmls.imaging.raster`).
+31 bits, take the rasterizer (:mod:`glmls.imaging.raster`). A mesh wider than a GL texture
+(the corners of an image as wide as the GL limit) is read from the mesh buffer
+(:meth:`~glmls.imaging.bands.MeshBands.bind_mesh`).
 
 Fold-overs: each covered pixel keeps, with atomicMax, the key 2^31 - (cell row, cell column,
 triangle) of the FIRST triangle in row-major cell order that covers it, so the result does not
@@ -98,6 +98,7 @@ class CellScan:
         self._fast_dims = (1, 1)  # the mesh of the last fast scan
         self._fold_capacity = 0  # and the length of its list of folded cells
         self._pieces = ScanPieces(gl)  # large cells on llvmpipe (common/pieces.glsl)
+        self._mesh_defines: dict[str, bool] = {}  # how the passes read the mesh being drawn
 
     @current
     def draw(
@@ -123,8 +124,9 @@ class CellScan:
         height, width = lattice.shape
         nearest = not linear and not coords
         layout = key_layout(lattice, source_pixel=nearest)
-        if layout is None or not self._bands.fits_texture(lattice):
+        if layout is None:
             return False
+        self._mesh_defines = self._bands.mesh_defines(lattice)
         sub_bits, col_shift, row_shift = layout
         fused = nearest and not flip_y and _packable(source, target)
         sc = kernel.scaling
@@ -155,7 +157,7 @@ class CellScan:
         bands = 0
         for first, dims in self._bands(kernel, lattice):
             set_uniforms(cells, {"u_mesh_dims": dims, "u_first_row": first})
-            self._bands.texture(dims)
+            self._bands.bind_mesh(lattice, dims)
             winner.bind_to_storage_buffer(bindings.WINNER.index)
             if fused:
                 self._bind_fused(source, target)  # type: ignore[arg-type]
@@ -227,6 +229,7 @@ class CellScan:
                 "WARP_CELLS_FAST": fast,
                 "WARP_CELLS_HOT": hot,
                 "WARP_BORDER": border if fused else 0,
+                **self._mesh_defines,
             },
         )
 
@@ -243,7 +246,9 @@ class CellScan:
         boundary fails or more cells fold than the list holds (one in 16)."""
         gl = self._gl
         stages = {
-            stage: gl.compute("warp/cells_check.comp.glsl", {"WARP_CHECK_STAGE": stage})
+            stage: gl.compute(
+                "warp/cells_check.comp.glsl", {"WARP_CHECK_STAGE": stage, **self._mesh_defines}
+            )
             for stage in (1, 2, 3, 6)
         }
         fast = self._program(nearest=True, fused=True, fast=True, border=border)
@@ -329,11 +334,8 @@ class CellScan:
                 {"WARP_LINEAR": False, "WARP_BORDER": border},
             )
         else:
-            program = self._gl.program(
-                vertex,
-                "warp/cells.frag.glsl",
-                {"WARP_LINEAR": linear, "WARP_OUTPUT_COORDS": coords, "WARP_BORDER": border},
-            )
+            defines = {"WARP_LINEAR": linear, "WARP_OUTPUT_COORDS": coords, "WARP_BORDER": border}
+            program = self._gl.program(vertex, "warp/cells.frag.glsl", defines | self._mesh_defines)
         set_uniforms(program, values | {"u_flip_y": flip_y})
         if source is not None and not coords:
             mode = moderngl.LINEAR if linear else moderngl.NEAREST
@@ -354,5 +356,5 @@ class CellScan:
             bands = self._bands(kernel, lattice)
         for first, dims in bands:
             set_uniforms(program, {"u_mesh_dims": dims, "u_first_row": first})
-            self._bands.texture(dims)
+            self._bands.bind_mesh(lattice, dims)
             vao.render(moderngl.TRIANGLES, vertices=3)

@@ -298,3 +298,32 @@ def test_an_analysis_canvas_at_the_limit(gl, limit):
         assert_array_equal(canvas.image(image).read(), image)
     with pytest.raises(ValueError, match=rf"\(3, {limit + 1}\).*{limit}"):
         glmls.analysis.Canvas((3, limit + 1), ctx=gl)
+
+
+@pytest.mark.parametrize(
+    ("interpolation", "first"),
+    [
+        ("nearest", [0, 200, 0, 0, 0, 0, 0, 0, 200]),  # pixel k shows source pixel k - 1
+        ("linear", [0, 100, 0, 0, 0, 0, 0, 100, 100]),  # source point k - 0.5
+    ],
+)
+def test_a_mesh_wider_than_a_texture_is_scanned_as_any_other(
+    gl, limit, pipeline, interpolation, first
+):
+    """At grid 1 the corners of an image as wide as the limit are one more than a texture's
+    row: the scan reads them from the mesh buffer, not the rasterizer, whose tie rule
+    differs. A translation by half a pixel puts every pixel centre on a cell's edge, where the
+    tie rule decides: the pixels are those of limit - 1 and of the batch."""
+    row = np.zeros((2, limit), np.uint8)
+    row[:, ::7] = 200
+    src = np.array([[0.0, 0.0], [100.0, 1.0]])
+    dst = src + [0.5, 0.0]
+    pipe = pipeline()
+    with glmls.MLS(src, dst, ctx=gl) as m:
+        out = pipe.warp(m, row, grid=1, interpolation=interpolation)
+        assert pipe.cells.last_path is not None  # scan-converted
+        shorter = pipe.warp(m, row[:, :-1], grid=1, interpolation=interpolation)
+    batch = glmls.warp_batch([row], [src], [dst], grid=1, interpolation=interpolation)[0]
+    assert_array_equal(out, batch)
+    assert_array_equal(out[:, :1000], shorter[:, :1000])
+    assert out[1, :9].tolist() == first  # pixel 0 shows source -0.5: outside

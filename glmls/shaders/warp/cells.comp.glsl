@@ -57,8 +57,6 @@ layout(local_size_x = LOCAL_SIZE) in;
 #include "common/lattice.glsl"
 #include "common/pieces.glsl"
 
-layout(binding = BIND_MESH) uniform sampler2D warp_mesh;   // f at the band's vertices
-                                                          // (scaled), fetched as texels
 layout(std430, binding = BIND_WINNER) buffer WarpWinner {
     uint warp_winner[];  // per target pixel, row-major: the shown triangle's key, 0 = none
 };
@@ -72,10 +70,12 @@ uniform int u_col_shift;
 uniform int u_row_shift;
 uniform ivec2 u_source_size;  // W, H of the source image (the fused colours)
 
+#include "warp/mesh_fetch.glsl"
+
 #include "warp/cells_hot.glsl"
 
 vec2 vertex_px(ivec2 ij) {
-    return warp_output_point(texelFetch(warp_mesh, ij, 0).xy);
+    return warp_output_point(warp_mesh_at(ij));
 }
 
 #include "warp/coverage.glsl"

@@ -9,20 +9,21 @@
 //
 //   WARP_OUTPUT_COORDS 1: write (s.x, s.y, 1, 0) instead of the colour (backward's guess).
 // Nearest colours take the shorter way of warp/cells_nearest.frag.glsl.
-// Copies of the mesh (RG32F, one texel per vertex of the band) and of the winner buffer
-// (R32UI, one texel per pixel) as textures: texel fetches are vectorised on llvmpipe, storage
-// buffer reads go lane by lane (2x slower here).
+// A copy of the winner buffer (R32UI, one texel per pixel) as a texture: texel fetches are
+// vectorised on llvmpipe, storage buffer reads go lane by lane (2x slower here); the mesh as
+// warp/mesh_fetch.glsl reads it.
 #include "warp/target.glsl"
 #include "warp/sample.glsl"
 #include "warp/frame.glsl"
 
-layout(binding = BIND_MESH) uniform sampler2D u_mesh;
 layout(binding = BIND_WINNER_TEXTURE) uniform usampler2D u_winner;
 
 uniform ivec2 u_mesh_dims;    // vertices per row, rows of this band
 uniform int u_first_row;      // mesh row of the band's first row
 uniform int u_col_shift;      // key layout, see warp/cells.comp.glsl (no source pixel bits)
 uniform int u_row_shift;
+
+#include "warp/mesh_fetch.glsl"
 
 layout(location = 0) out vec4 out_color;
 
@@ -43,9 +44,9 @@ void main() {
     // the triangle's corners as mesh offsets: (00, 10, 11) or (00, 11, 01)
     ivec2 kb = triangle == 0 ? ivec2(1, 0) : ivec2(1, 1);
     ivec2 kc = triangle == 0 ? ivec2(1, 1) : ivec2(0, 1);
-    vec2 a = warp_output_point(texelFetch(u_mesh, c, 0).xy);
-    vec2 b = warp_output_point(texelFetch(u_mesh, c + kb, 0).xy);
-    vec2 d = warp_output_point(texelFetch(u_mesh, c + kc, 0).xy);
+    vec2 a = warp_output_point(warp_mesh_at(c));
+    vec2 b = warp_output_point(warp_mesh_at(c + kb));
+    vec2 d = warp_output_point(warp_mesh_at(c + kc));
     // the source point at the pixel centre, in the triangle
     vec2 s = lattice_source_point(a, b, d, g, kb, kc, vec2(p));
 #if WARP_OUTPUT_COORDS

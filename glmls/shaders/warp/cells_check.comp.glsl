@@ -32,8 +32,6 @@ layout(local_size_x = LOCAL_SIZE) in;
 #include "warp/cells_packed.glsl"
 #include "warp/frame.glsl"
 
-layout(binding = BIND_MESH) uniform sampler2D warp_mesh;   // f at the mesh vertices
-                                                          // (scaled), fetched as texels
 layout(std430, binding = BIND_WINNER) writeonly buffer WarpWinner {
     uvec4 warp_winner4[];   // the keys, four per element
 };
@@ -42,10 +40,12 @@ uniform ivec2 u_mesh_dims;    // vertices per row, rows (the whole mesh)
 uniform ivec2 u_target_size;
 uniform int u_offset;         // first item of this dispatch (stage 3)
 
+#include "warp/mesh_fetch.glsl"
+
 #include "warp/cells_hot.glsl"
 
 vec2 vertex_px(ivec2 ij) {
-    return warp_output_point(texelFetch(warp_mesh, ij, 0).xy);
+    return warp_output_point(warp_mesh_at(ij));
 }
 
 // Boundary vertex t, counter-clockwise in the triangles' sense (00 -> 10 -> 11 -> 01):
@@ -136,12 +136,12 @@ void main() {
     // boundary's image has winding number 0 about it, so no positive cell covers it.
     bool folded = (warp_check_data[u_folded_blocks + block / 32] & (1u << uint(block % 32))) != 0u;
     int stride = folded ? 1 : b1.x - b0.x;   // inner rows: all or the two ends
-    vec2 lo = texelFetch(warp_mesh, b0, 0).xy;
+    vec2 lo = warp_mesh_at(b0);
     vec2 hi = lo;
     for (int y = b0.y; y <= b1.y; ++y) {
         bool edge_row = y == b0.y || y == b1.y;
         for (int x = b0.x; x <= b1.x; x += edge_row ? 1 : stride) {
-            vec2 p = texelFetch(warp_mesh, ivec2(x, y), 0).xy;
+            vec2 p = warp_mesh_at(ivec2(x, y));
             lo = min(lo, p);
             hi = max(hi, p);
         }
