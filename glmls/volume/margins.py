@@ -28,6 +28,13 @@ _GUESS_ROUNDS = 8
 _COVER_ROUNDS = 16
 #: Points a side at most at which a face of the lattice is sampled.
 _FACE_SAMPLES = 33
+#: Where a round would end, the cells between a face's samples whose images reach into the
+#: canvas's box are sampled again, finer, so that their images lie at most about this far
+#: apart (voxels: half the voxel by which the box is grown), with at most this many points
+#: in all and this many a side of a cell.
+_FINE_STEP = 0.5
+_FINE_POINTS = 1 << 18
+_FINE_SIDE = 65
 
 _PACKAGE = str(Path(__file__).resolve().parents[1])
 
@@ -67,7 +74,11 @@ def search_margins3(
     Per side, of the points sampled on the lattice's face there (at most 33 x 33) whose
     images lie in that box across the face, the one f takes furthest into it along the
     face's normal says how much further out the face must lie; a face whose image keeps out
-    of the box needs no margin. The faces are first the volume's, then those of the lattice
+    of the box needs no margin. Before a round ends the search (with ``cover``), the cells
+    between the samples whose images reach into the box are sampled again, their images
+    about half a voxel apart (:func:`_finer`): a face far larger than the box, sampled
+    sparsely, may pass through it between its samples (a shrink leaves every sample
+    outside). The faces are first the volume's, then those of the lattice
     with the margins found so far, until each holds (f past the volume is not f on its
     faces: where f shrinks the volume, a face further out is moved further in). Each round
     goes to where the need, growing with the margin at the rate the last two rounds show,
@@ -119,6 +130,13 @@ def search_margins3(
         faces = _faces(box)
         images = field.evaluate(np.concatenate([points for *_, points in faces]))
         further, clear = _need(faces, images, grown, overhang + 1 - margins)
+        if cover and (clear or np.all(further <= 0)):  # the round may end: look closer
+            finer = _finer(faces, images, grown, grid)
+            if finer:
+                fine_images = field.evaluate(np.concatenate([points for *_, points in finer]))
+                more, fine_clear = _need(finer, fine_images, grown, overhang + 1 - margins)
+                further = np.maximum(further, more)
+                clear = clear and fine_clear
         winding = _winding(faces, images, centre) if cover else None
         if clear and winding is not None and abs(winding) > 0.5:
             return _as_margins(margins), True
@@ -151,9 +169,13 @@ def search_margins3(
                     rate = np.where(margins > last[0], (need - last[1]) / (margins - last[0]), 0.0)
                 rate = np.clip(np.nan_to_num(rate), 0.0, 1.0)
                 # a need that grows (nearly) as fast as the margin (f shrinks the volume to
-                # almost a point) is met at no margin short of the limit
+                # almost a point) is met far out, if at all; at most doubled a round, as the
+                # rate also counts what the other sides' margins did to this face (a face
+                # that grows across takes in more of f's image), and a side that leapt to
+                # its limit would leave the others' none of the lattice's budget
                 ahead = np.where(rate < 0.95, (need - margins) / np.maximum(1 - rate, 0.05), limit)
-                goal = np.minimum(np.maximum(need, margins + ahead), limit)
+                doubled = np.maximum(need, 2 * margins + grid)
+                goal = np.minimum(np.maximum(need, np.minimum(margins + ahead, doubled)), limit)
             last = (margins, need)
         grown_margins = np.maximum(margins, grid * np.ceil(goal / grid))
         if cover:
@@ -278,9 +300,55 @@ def _need(
         if np.any(inside):
             normal = image[inside, axis]
             into = normal - grown[axis, 0] if end == 0 else grown[axis, 1] - normal
-            need[axis, end] = float(np.max(into))
+            need[axis, end] = max(need[axis, end], float(np.max(into)))
             clear = clear and not np.any((normal > grown[axis, 0]) & (normal < grown[axis, 1]))
     return need, clear
+
+
+def _finer(faces: list, images: np.ndarray, grown: np.ndarray, grid: int) -> list:
+    """Faces' points (as :func:`_faces`' entries, one (axis, end, points, 1, points) per
+    face, for :func:`_need`) sampled again, finer, in the cells between ``faces``' samples
+    whose images' box meets ``grown`` (the canvas's box) and spans more than
+    :data:`_FINE_STEP`: so many a side that their images lie about that far apart where f
+    is near linear across a cell, within :data:`_FINE_SIDE` a side and
+    :data:`_FINE_POINTS` in all. Only faces sampled more sparsely than their lattice's
+    vertices (``grid`` apart): where the samples are those vertices, the lattice's boundary
+    is the cells' faces between their images. Empty where no cell needs it."""
+    wanted = []
+    start = 0
+    for axis, end, na, nb, face in faces:
+        image = images[start : start + len(face)].reshape(na, nb, 3)
+        start += len(face)
+        if na < 2 or nb < 2 or not np.all(np.isfinite(image)):
+            continue  # (f not a number there: _need takes the face as unmoved)
+        across = [a for a in range(3) if a != axis]
+        spacing = np.ptp(face[:, across], axis=0) / (np.array([na, nb]) - 1)
+        if np.all(spacing <= grid):
+            continue
+        corners = np.stack([image[:-1, :-1], image[1:, :-1], image[1:, 1:], image[:-1, 1:]])
+        low, high = corners.min(axis=0), corners.max(axis=0)
+        span = (high - low).max(axis=-1)
+        meets = np.all((high >= grown[:, 0]) & (low <= grown[:, 1]), axis=-1)
+        cells = np.argwhere(meets & (span > _FINE_STEP))
+        if len(cells):
+            side = min(_FINE_SIDE, math.ceil(float(span[meets].max()) / _FINE_STEP) + 1)
+            wanted.append((axis, end, face.reshape(na, nb, 3), cells, side))
+    if not wanted:
+        return []
+    total = sum(len(cells) * side**2 for *_, cells, side in wanted)
+    shrink = min(1.0, math.sqrt(_FINE_POINTS / total))
+    finer = []
+    for axis, end, points, cells, side in wanted:
+        side = max(2, int(side * shrink))
+        i, j = cells[:, 0], cells[:, 1]
+        corner = points[i, j]
+        along_a = (points[i + 1, j] - corner)[:, None, None]
+        along_b = (points[i, j + 1] - corner)[:, None, None]
+        t = np.linspace(0.0, 1.0, side)
+        fine = corner[:, None, None] + t[:, None, None] * along_a + t[None, :, None] * along_b
+        fine = fine.reshape(-1, 3)
+        finer.append((axis, end, len(fine), 1, fine))
+    return finer
 
 
 #: Per axis, the sign of the normal of a face's triangles (p00, p10, p11) along it: the

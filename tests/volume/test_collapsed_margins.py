@@ -119,10 +119,11 @@ def test_a_collapse_ends_the_search_in_its_first_rounds(shape, transform, grid, 
 def test_a_shrink_grows_the_margins_as_far_as_they_help(shape, name, grid):
     """A shrink is no collapse: the faces' image grows with the margins, which grow in a few
     rounds until the lattice covers the canvas or has the most points it may (one more grid
-    step a side would take it past the budget)."""
+    step a side would take it past the budget): at most doubling a round, and twice more
+    where the faces' samples are looked at closer before the search ends."""
     transform, scale = MAPS[name]
     found, covered, calls = _search(shape, transform, scale, grid)
-    assert calls <= 4
+    assert calls <= 8
     d, h, w = shape
     size = np.array([w, h, d], float)
     if covered:

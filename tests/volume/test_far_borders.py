@@ -22,6 +22,8 @@ from glmls.volume.margins import border_margin3, search_margins3
 SHAPE = (6, 6, 6)
 CORNERS = np.array([[x, y, z] for z in (0, 5) for y in (0, 5) for x in (0, 5)], float)
 CENTRE = np.array([2.5, 2.5, 2.5])
+SHEAR_41 = np.array([[0.384, 0.134, -0.004], [0.251, 0.337, 0.554], [0.047, -0.585, 0.321]])
+SHEAR_28 = np.array([[0.397, 0.066, -0.116], [-0.262, 1.146, 0.464], [-0.005, -0.59, 1.205]])
 MAPS = {
     "shift x 20": CORNERS + [20.0, 0.0, 0.0],
     "shift x -20": CORNERS + [-20.0, 0.0, 0.0],
@@ -29,6 +31,10 @@ MAPS = {
     "zoom out 10": (CORNERS - CENTRE) * 0.1 + CENTRE,
     "zoom out 10, shifted": (CORNERS - CENTRE) * 0.1 + CENTRE + [7.0, 0.0, -3.0],
     "squeeze z 8": (CORNERS - CENTRE) * [1.0, 1.0, 0.125] + CENTRE,
+    # sheared shrinks (singular values 0.74, 0.67, 0.32; 1.37, 1.25, 0.39): faces far larger
+    # than the canvas cross it between their samples, and one side's growth moves another's
+    "shear, shrink to a third": CORNERS @ SHEAR_41 + [-3.92, -2.15, 3.56],
+    "shear, squeeze": CORNERS @ SHEAR_28 + [-1.38, 2.99, -1.01],
 }
 BORDERS = ("edge", "wrap", "reflect", "symmetric")
 
@@ -93,6 +99,25 @@ def test_the_diagonal_shift_takes_margins_where_its_preimage_lies():
     (x_low, x_high), (y_low, y_high), (z_low, z_high) = found
     assert x_low >= 10 and y_high >= 9 and z_low >= 6
     assert x_high == y_low == z_high == 0
+
+
+@pytest.mark.parametrize("name", ["shear, shrink to a third", "shear, squeeze"])
+def test_a_sheared_shrink_takes_the_margins_its_preimage_needs(name):
+    """The canvas's preimage under these affine maps lies within 16 voxels of the volume: the
+    margins cover it and stay near that, not at the lattice's budget along some sides."""
+    dst = MAPS[name]
+    found, covered = search_margins3(
+        _field(dst), CornerLattice(SHAPE), VolumeFrame(SHAPE), cover=True
+    )
+    assert covered
+    fit = np.linalg.lstsq(np.c_[CORNERS, np.ones(8)], dst, rcond=None)[0]
+    matrix, offset = fit[:3], fit[3]
+    k, j, i = np.meshgrid(*(np.arange(n) for n in SHAPE), indexing="ij")
+    u = np.stack([i, j, k], axis=-1).reshape(-1, 3)
+    preimage = np.linalg.solve(matrix.T, (u - offset).T).T
+    reach = np.stack([-0.5 - preimage.min(axis=0), preimage.max(axis=0) - 5.5], axis=1)
+    assert np.all(np.array(found) >= np.ceil(reach))
+    assert np.array(found).max() <= 2 * np.ceil(reach).max() + 8, found
 
 
 def test_moderate_maps_keep_their_margins():
