@@ -309,12 +309,10 @@ def mesh_keypoints(
     needed[image[tested]] = True
     meshes = np.flatnonzero(needed)
     which = (np.cumsum(needed) - 1)[image[tested]]  # the place of each in ``meshes``
-    # a point meets at most every row of its mesh, a (columns + 1, 2) array each: blocks of
-    # points bound those arrays whatever the number of keypoints (each point's answer is
-    # its own, so the blocks change none)
-    _, rows, columns, _ = vertices.shape
-    block = max(1, COVER_BLOCK // (rows * columns))
-    boxes = _row_boxes(vertices, meshes) if len(tested) else []
+    # blocks of points bound the pairs (point, tile) they make whatever the number
+    # of keypoints (each point's answer is its own, so the blocks change none)
+    block = max(1, _PAIRS_BLOCK // _boxes_per_mesh(vertices))
+    boxes = _tile_boxes(vertices, meshes) if len(tested) else ([], [])
     for start in range(0, len(tested), block):
         part = tested[start : start + block]
         hidden[part] = _covered_earlier(
@@ -343,11 +341,11 @@ def _nearest_drawn(vertices, images, row, col, triangle, out, origin) -> np.ndar
         centre[:, axis] = np.rint(out[:, axis] - origin[axis]) + origin[axis]
     drawn = _walk(vertices, images, row, col, triangle, centre)
     rest = np.flatnonzero(~drawn)
-    if len(rest):  # any triangle of the mesh: the row boxes, as for hidden points
+    if len(rest):  # any triangle of the mesh: the tiles, as for hidden points
         meshes, which = np.unique(images[rest], return_inverse=True)
-        boxes = _row_boxes(vertices, meshes)
+        boxes = _tile_boxes(vertices, meshes)
         anywhere = np.full(len(rest), np.iinfo(np.int64).max)
-        block = max(1, COVER_BLOCK // (vertices.shape[1] * vertices.shape[2]))
+        block = max(1, _PAIRS_BLOCK // _boxes_per_mesh(vertices))
         for start in range(0, len(rest), block):
             part = slice(start, start + block)
             drawn[rest[part]] = _covered_earlier(
@@ -363,7 +361,7 @@ _TRIANGLES = np.array([[0, 1, 3], [0, 3, 2]])
 _ACROSS = np.array(
     [[[-1, 0, 1], [0, 1, 1], [0, 0, 1]], [[0, 0, 0], [1, 0, 0], [0, -1, 0]]], np.int64
 )
-#: Triangles :func:`_walk` steps through toward a point before it leaves it to the row boxes.
+#: Triangles :func:`_walk` steps through toward a point before it leaves it to the tiles.
 _WALK_STEPS = 4
 
 
@@ -371,7 +369,7 @@ def _walk(vertices, images, row, col, triangle, targets) -> np.ndarray:
     """(P,) bool: found in a triangle of its deformed mesh (edges included), each of the
     (P, 2) ``targets``, by a walk from triangle ``triangle`` of cell (``row``, ``col``)
     across the edge it lies furthest beyond, for :data:`_WALK_STEPS` triangles at most;
-    False where the walk leaves the mesh, meets a flat triangle or stops (the row boxes
+    False where the walk leaves the mesh, meets a flat triangle or stops (the tiles
     decide there)."""
     _, rows, columns, _ = vertices.shape
     found = np.zeros(len(targets), bool)
@@ -416,49 +414,101 @@ def _cell_vertices(vertices, image: np.ndarray, row: np.ndarray, col: np.ndarray
     return np.stack([np.take(flat, 2 * at + axis) for axis in (0, 1)], axis=1)
 
 
-def _row_boxes(vertices, chosen: np.ndarray) -> list[np.ndarray]:
-    """The boxes of the rows of cells of the meshes ``chosen`` (each of its two rows of
-    vertices): least x, least y, greatest x, greatest y, four (M, rows - 1) arrays."""
+#: Cells a side of the tiles of a mesh, and in a piece of a row of cells: a folded mesh's
+#: rows of cells curl over much of the image, and a point meets many rows but few tiles.
+#: :func:`_covered_earlier` tests a point against the tiles' boxes, then against those of
+#: the pieces of the tiles whose box holds it, then gathers the vertices of the pieces
+#: whose box holds it.
+_TILE = 16
+
+
+def _boxes_per_mesh(vertices) -> int:
+    """The tiles per mesh of ``vertices`` (N, rows, columns, 2), whose boxes
+    :func:`_covered_earlier` tests every point against first."""
+    _, rows, columns, _ = vertices.shape
+    return -(-(rows - 1) // _TILE) * -(-(columns - 1) // _TILE)
+
+
+def _tile_boxes(vertices, chosen: np.ndarray) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """The boxes of the tiles (:data:`_TILE` x :data:`_TILE` cells, fewer at the mesh's
+    last row and column) of the meshes ``chosen``, and of the tiles' pieces of a row of
+    cells: least x, least y, greatest x, greatest y, four (M, tiles) arrays (tile (i, j) at
+    i * (tiles a row) + j) and four (M, rows of cells, tiles a row) arrays."""
     reduces = (np.minimum, np.minimum, np.maximum, np.maximum)
-    extents = zip(_row_extents(vertices, chosen), reduces, strict=True)
-    return [reduce(line[:, :-1], line[:, 1:]) for line, reduce in extents]
+    extents = zip(_piece_extents(vertices, chosen), reduces, strict=True)
+    pieces = [reduce(line[:, :-1], line[:, 1:]) for line, reduce in extents]
+    starts = np.arange(0, pieces[0].shape[1], _TILE)
+    tiles = [
+        reduce.reduceat(piece, starts, axis=1).reshape(len(chosen), -1)
+        for piece, reduce in zip(pieces, reduces, strict=True)
+    ]
+    return tiles, pieces
 
 
 def _covered_earlier(
     vertices,
     chosen: np.ndarray,
-    boxes: list[np.ndarray],
+    boxes: tuple[list[np.ndarray], list[np.ndarray]],
     which: np.ndarray,
     points: np.ndarray,
     own: np.ndarray,
 ) -> np.ndarray:
     """(P,) bool: a triangle of deformed mesh ``chosen[which]`` (of ``vertices``, (N, rows,
-    columns, 2), an array or :class:`MeshVertices`; ``boxes``: :func:`_row_boxes` of
+    columns, 2), an array or :class:`MeshVertices`; ``boxes``: :func:`_tile_boxes` of
     ``chosen``) before key ``own`` holds the point strictly inside (either orientation:
     folded triangles are drawn too). Every mesh's points at once: against the boxes of its
-    rows of cells, then of the cells of the rows whose box holds the point, then the
-    triangles of the cells whose box does."""
+    tiles, then of the pieces of rows of the tiles whose box holds the point, then of the
+    cells of the pieces whose box does, then the triangles of the cells whose box does: the
+    pairs in blocks that gather at most :data:`COVER_BLOCK` values."""
+    tiles, pieces = boxes
+    index, tile = _near_tiles(tiles, which, points)
+    hidden = np.zeros(len(points), bool)
+    rows, across = pieces[0].shape[1:]
+    block = max(1, COVER_BLOCK // (4 * _TILE))
+    for start in range(0, len(index), block):
+        pairs = slice(start, start + block)
+        point, mesh = index[pairs], which[index[pairs]]
+        tile_row, tile_col = np.divmod(tile[pairs], across)
+        row = np.minimum(tile_row[:, None] * _TILE + np.arange(_TILE), rows - 1)  # (T, tile)
+        qx, qy = points[point, :1], points[point, 1:]
+        lx, ly, hx, hy = (box[mesh[:, None], row, tile_col[:, None]] for box in pieces)
+        real = tile_row[:, None] * _TILE + np.arange(_TILE) < rows  # a last tile's fewer rows
+        pair, k = np.nonzero((lx <= qx) & (qx <= hx) & (ly <= qy) & (qy <= hy) & real)
+        slot = row[pair, k] * across + tile_col[pair]
+        for part in range(0, len(pair), max(1, COVER_BLOCK // (2 * (_TILE + 1)))):
+            chunk = slice(part, part + max(1, COVER_BLOCK // (2 * (_TILE + 1))))
+            _cover_pairs(
+                vertices, chosen, which, points, own, point[pair][chunk], slot[chunk], hidden
+            )
+    return hidden
+
+
+def _cover_pairs(vertices, chosen, which, points, own, index, slot, hidden) -> None:
+    """:func:`_covered_earlier` for the pairs (``index``: point, ``slot``: piece k of row r
+    as r * (pieces a row) + k) whose piece's box holds the point, into ``hidden``."""
     columns = vertices.shape[2] - 1
-    index, row = _near_rows(boxes, which, points)
-    mesh = which[index]
-    qx, qy = points[index, :1], points[index, 1:]
-    image = chosen[mesh]
-    top, bottom = vertices[image, row], vertices[image, row + 1]  # (T, columns + 1, 2)
+    row, piece = np.divmod(slot, -(-columns // _TILE))
+    image = chosen[which[index]][:, None]
+    first = piece[:, None] * _TILE
+    at = np.minimum(first + np.arange(_TILE + 1), columns)  # (T, tile + 1) vertices
+    top = vertices[image, row[:, None], at]
+    bottom = vertices[image, row[:, None] + 1, at]  # (T, tile + 1, 2)
     corners = [top[:, :-1], top[:, 1:], bottom[:, 1:], bottom[:, :-1]]  # 00, 10, 11, 01
+    qx, qy = points[index, :1], points[index, 1:]
     lx, ly, hx, hy = (
         reduce(
             reduce(corners[0][..., k], corners[1][..., k]),
             reduce(corners[2][..., k], corners[3][..., k]),
         )
         for reduce, k in ((np.minimum, 0), (np.minimum, 1), (np.maximum, 0), (np.maximum, 1))
-    )  # (T, columns): the boxes of that row's cells
-    pair, cell = np.nonzero((lx <= qx) & (qx <= hx) & (ly <= qy) & (qy <= hy))
-    point = index[pair]
-    hidden = np.zeros(len(points), bool)
+    )  # (T, tile): the boxes of that piece's cells
+    real = first + np.arange(_TILE) < columns  # the last piece's cells past the row's end
+    pair, cell = np.nonzero((lx <= qx) & (qx <= hx) & (ly <= qy) & (qy <= hy) & real)
     if not len(pair):
-        return hidden
+        return
+    point = index[pair]
     q = points[point]
-    key = (row[pair] * columns + cell) * 2
+    key = (row[pair] * columns + first[pair, 0] + cell) * 2
     for triangle, (p0, p1, p2) in enumerate(((0, 1, 2), (0, 2, 3))):
         earlier = key + triangle < own[point]
         x0, x1, x2 = (corners[k][pair, cell] for k in (p0, p1, p2))
@@ -469,29 +519,33 @@ def _covered_earlier(
         for u, v in ((x0, x1), (x1, x2), (x2, x0)):
             strictly &= cross(v - u, q - u) * sign > tiny
         hidden[point[strictly]] = True
-    return hidden
 
 
-#: Vertices (points times the vertices of their rows) that :func:`_covered_earlier` gathers
-#: in one block of :func:`mesh_keypoints`.
+#: Vertices (pairs of a point and a tile whose box holds it, times the vertices of a tile)
+#: that :func:`_covered_earlier` gathers in one block.
 COVER_BLOCK = 1 << 21
+#: Points times tiles in one block of points of :func:`_covered_earlier`'s callers: the most
+#: pairs (point, tile) the block can make.
+_PAIRS_BLOCK = 1 << 22
 
-#: Values (points times rows of cells) that :func:`_near_rows` compares in one block.
+#: Values (points times tiles) that :func:`_near_tiles` compares in one block.
 _NEAR_BLOCK = 1 << 20
 
 
-def _near_rows(boxes: list[np.ndarray], which: np.ndarray, points: np.ndarray):
-    """The pairs (point, row of cells) whose row's box (``boxes``: least x, least y,
-    greatest x, greatest y of each mesh's rows, four (M, rows) arrays) holds the point, each
-    point against its own mesh ``which``: two (T,) index arrays. In blocks of points, so that
+def _near_tiles(boxes: list[np.ndarray], which: np.ndarray, points: np.ndarray):
+    """The pairs (point, tile) whose tile's box (``boxes``: least x, least y, greatest x,
+    greatest y of each mesh's tiles, four (M, tiles) arrays) holds the point, each point
+    against its own mesh ``which``: two (T,) index arrays. In blocks of points, so that
     neither many points nor many meshes make a large array (no mesh is padded to the most
     points of any)."""
-    rows = boxes[0].shape[1]
-    block = max(1, _NEAR_BLOCK // max(rows, 1))
+    tiles = boxes[0].shape[1]
+    block = max(1, _NEAR_BLOCK // max(tiles, 1))
     found = []
     for start in range(0, len(points), block):
         mine = which[start : start + block]
-        lx, ly, hx, hy = (box[mine] for box in boxes)  # (B, rows)
+        if len(mine) and np.all(mine == mine[0]):  # one mesh's points: its boxes broadcast
+            mine = mine[:1]
+        lx, ly, hx, hy = (box[mine] for box in boxes)  # (B, tiles) or (1, tiles)
         qx, qy = points[start : start + block, :1], points[start : start + block, 1:]
         index, row = np.nonzero((lx <= qx) & (qx <= hx) & (ly <= qy) & (qy <= hy))
         found.append((index + start, row))
@@ -500,15 +554,28 @@ def _near_rows(boxes: list[np.ndarray], which: np.ndarray, points: np.ndarray):
     return np.concatenate([f[0] for f in found]), np.concatenate([f[1] for f in found])
 
 
-def _row_extents(vertices, chosen: np.ndarray) -> list[np.ndarray]:
-    """Least x, least y, greatest x, greatest y of each row of vertices of the meshes
-    ``chosen``: four (M, rows) arrays (:meth:`MeshVertices.row_extents` where it is one)."""
+def _piece_extents(vertices, chosen: np.ndarray) -> list[np.ndarray]:
+    """Least x, least y, greatest x, greatest y of the vertices of each piece of each row of
+    vertices of the meshes ``chosen`` (:data:`_TILE` + 1 vertices, the ends of its cells):
+    four (M, rows, pieces) arrays (:meth:`MeshVertices.piece_extents` where it is one)."""
     if isinstance(vertices, MeshVertices):
-        return vertices.row_extents(chosen)
-    chosen_vertices = vertices[chosen]
-    return [
-        reduce(chosen_vertices[..., axis], axis=2) for reduce in (np.min, np.max) for axis in (0, 1)
-    ]
+        return vertices.piece_extents(chosen, _TILE)
+    return _pieces(np.asarray(vertices)[chosen], _TILE)
+
+
+def _pieces(values: np.ndarray, piece: int) -> list[np.ndarray]:
+    """The extents of :func:`_piece_extents` of ``values`` (M, rows, columns, 2)."""
+    columns = values.shape[2] - 1
+    starts = np.arange(0, max(columns, 1), piece)
+    ends = np.minimum(starts + piece, columns)
+    out = []
+    for reduce in (np.minimum, np.maximum):
+        for axis in (0, 1):
+            line = values[..., axis]
+            # the vertices first .. next first - 1 (the last piece: to the row's end), then
+            # the piece's last vertex, the next piece's first
+            out.append(reduce(reduce.reduceat(line, starts, axis=2), line[:, :, ends]))
+    return out
 
 
 class MeshVertices:
@@ -532,19 +599,18 @@ class MeshVertices:
     def shape(self) -> tuple[int, ...]:
         return self._scaled.shape
 
-    def row_extents(self, images: np.ndarray) -> list[np.ndarray]:
-        """Least x, least y, greatest x, greatest y of each row of vertices of ``images``:
-        four (M, rows) arrays, reduced in float32 and then converted (the conversion is
-        increasing, so the extremes are those of the converted vertices, bit for bit)."""
-        scaled = self._scaled[images]
-        scale = self._scales[images][:, None]
+    def piece_extents(self, images: np.ndarray, piece: int) -> list[np.ndarray]:
+        """Least x, least y, greatest x, greatest y of the pieces of ``piece`` cells of each
+        row of vertices of ``images`` (:func:`_piece_extents`): four (M, rows, pieces)
+        arrays, reduced in float32 and then converted (the conversion is increasing, so the
+        extremes are those of the converted vertices, bit for bit)."""
+        scale = self._scales[images][:, None, None]
         centre = self._centers[images]
-        out = []
-        for reduce in (np.min, np.max):
-            for axis in (0, 1):  # reduced along a row: a loop over its vertices, not over x, y
-                extreme = reduce(scaled[..., axis], axis=2).astype(np.float64)  # (M, rows)
-                out.append(extreme * scale + centre[:, axis, None])
-        return out
+        extents = _pieces(self._scaled[images], piece)
+        return [
+            extreme.astype(np.float64) * scale + centre[:, k % 2, None, None]
+            for k, extreme in enumerate(extents)
+        ]
 
     def flat_points(self, at: np.ndarray, images: np.ndarray) -> np.ndarray:
         """The vertices at flat indices ``at`` (k, P) into (N * rows * columns) of the

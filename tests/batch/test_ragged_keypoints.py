@@ -151,3 +151,63 @@ def test_fold_candidates_test_each_point_against_its_own_meshs_boxes(seed):
     whole = pairs[images] > piece
     assert whole.any() and (~whole & (pairs[images] > 0)).any()
     np.testing.assert_array_equal(found, expected | whole)
+
+
+def _cross(a, b):
+    return a[0] * b[1] - a[1] * b[0]
+
+
+def _hidden_by_any_triangle(mesh, points, moved):
+    """The float64 rule of mesh_keypoints, triangle by triangle (grid 1): a point is hidden
+    where a triangle before its own (cell row, column, then (00, 10, 11) before (00, 11,
+    01), its own the one its source point lies in) holds its moved point strictly inside,
+    in either orientation."""
+    rows, columns = mesh.shape[0] - 1, mesh.shape[1] - 1
+    cell = np.clip(np.floor(points + 0.5).astype(np.int64), 0, [columns - 1, rows - 1])
+    local = points + 0.5 - cell
+    hidden = np.zeros(len(points), bool)
+    for k, q in enumerate(moved):
+        col, row = cell[k]
+        own = (row * columns + col) * 2 + int(local[k, 1] > local[k, 0])
+        for key in range(own):
+            r, c = divmod(key // 2, columns)
+            p00, p10, p11, p01 = mesh[r, c], mesh[r, c + 1], mesh[r + 1, c + 1], mesh[r + 1, c]
+            x0, x1, x2 = (p00, p10, p11) if key % 2 == 0 else (p00, p11, p01)
+            area = _cross(x1 - x0, x2 - x0)
+            if area == 0:
+                continue
+            edges = ((x0, x1), (x1, x2), (x2, x0))
+            if all(_cross(v - u, q - u) * np.sign(area) > 1e-9 * abs(area) for u, v in edges):
+                hidden[k] = True
+                break
+    return hidden
+
+
+@pytest.mark.parametrize("shape", [(28, 36), (41, 19)])
+@pytest.mark.parametrize("fold", ["handles pass", "spun twice"])
+def test_the_tiles_find_every_triangle_that_hides_a_point(gl, rng, shape, fold):
+    """Tiles of 16 x 16 cells (fewer at the last row and column), then their rows' pieces,
+    then the cells: the points hidden are those a search of every earlier triangle finds,
+    on meshes that fold (in the middle; everywhere, spun twice about the centre) and whose
+    sides are no multiple of the tile."""
+    lattice = MeshLattice.corners(shape, 1)
+    grid = lattice.points()
+    height, width = shape
+    if fold == "spun twice":
+        rel = grid - [(width - 1) / 2, (height - 1) / 2]
+        angle, radius = 2 * np.arctan2(rel[..., 1], rel[..., 0]), np.hypot(*np.moveaxis(rel, -1, 0))
+        mesh = [(width - 1) / 2, (height - 1) / 2] + np.stack(
+            [radius * np.cos(angle), radius * np.sin(angle)], axis=-1
+        )
+    else:  # two handles pass each other
+        src = np.array([[4.0, 4], [width - 5, 4], [4, height - 5], [width - 5, height - 5],
+                        [width / 2 - 4, height / 2], [width / 2 + 4, height / 2]])  # fmt: skip
+        dst = src.copy()
+        dst[4, 0], dst[5, 0] = width / 2 + 5, width / 2 - 5
+        with glmls.MLS(src, dst, shape=shape) as m:
+            mesh = m(grid.reshape(-1, 2)).reshape(grid.shape)
+    points = rng.uniform(-0.4, [width - 0.6, height - 0.6], (300, 2))
+    moved, valid = mesh_keypoints(lattice, mesh, points, None)
+    hidden = _hidden_by_any_triangle(mesh, points, moved)
+    assert hidden.any() and not hidden.all()
+    np.testing.assert_array_equal(valid, ~hidden)
