@@ -604,7 +604,8 @@ class Augment:
         grid = _mesh_grid(options)
         meshes = [None if grid is None else (grid, tuple(p["shape"])) for p in params]
         labels = [label_options_of(p, self.label_options) for p in params]
-        points, parts = self._points(marks, box_list, polygon_list, meshes, labels)
+        shapes = [tuple(p["shape"]) for p in params]
+        points, parts = self._points(marks, box_list, polygon_list, meshes, labels, shapes)
         options |= {k: v for k, v in self.warp_options.items() if k in _UNRECORDED}
         if src is None:
             src, dst = param_handles(params)
@@ -614,17 +615,18 @@ class Augment:
         return self._assemble(result, params, parts, stacked_marks, stacked_boxes, labels)
 
     @staticmethod
-    def _points(marks, box_list, polygon_list, meshes, labels):
+    def _points(marks, box_list, polygon_list, meshes, labels, shapes):
         """Every image's points to move: its keypoints, box outlines (with the crossings of
         ``meshes[i]``, the image's ``quads`` mesh where it has one; ``box_step`` of
-        ``labels[i]``, its draw's label options) and polygons (densified as they say), one
-        after another; ``parts`` records where each kind lies."""
+        ``labels[i]``, its draw's label options; sampled sparsely far past the image of
+        shape ``shapes[i]``) and polygons (densified as they say), one after another;
+        ``parts`` records where each kind lies."""
         if marks is None and box_list is None and polygon_list is None:
             return None, None
         points, parts = [], []
         if box_list is not None:  # the images of one step and mesh at once
             steps = [chosen["box_step"] for chosen in labels]
-            outlines = lab.outline_sets(box_list, steps, meshes)
+            outlines = lab.outline_sets(box_list, steps, meshes, shapes)
         for i, chosen in enumerate(labels):
             densify = chosen["densify"]
             pieces, part = [], {}
@@ -633,6 +635,8 @@ class Augment:
                 part["keypoints"] = len(marks[i])
             if box_list is not None:
                 outline, part["boxes"] = outlines[i]
+                given = box_list[i]  # a line or a point stays invalid however it bends
+                part["areas"] = (given[:, 2] > given[:, 0]) & (given[:, 3] > given[:, 1])
                 pieces.append(outline)
             if polygon_list is not None:
                 try:
@@ -667,7 +671,7 @@ class Augment:
                         moved[start : start + n], part["boxes"], out_shapes[i]
                     )
                     bxs.append(box)
-                    bvs.append(ok)
+                    bvs.append(ok & part["areas"])
                     start += n
                 if "polygons" in part:
                     one = []
@@ -733,6 +737,7 @@ def replay_boxes(
             np.asarray(b, np.float64),
             label_options_of(p, augment.label_options)["box_step"],
             mesh=None if grid is None else (grid, tuple(p["shape"])),
+            near=tuple(p["shape"]),
         )
         for b, p in zip(boxes, params, strict=True)
     ]

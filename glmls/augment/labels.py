@@ -39,6 +39,9 @@ __all__ = [
 #: The most points :func:`box_outlines` puts on one side of a box, and :func:`densify_polygon`
 #: on one edge: 2**22 (64 MiB of float64 points); a smaller ``step`` is refused.
 MAX_EDGE_POINTS = 1 << 22
+#: How far past the image (times its larger side, plus 64 px) :func:`box_outlines` samples
+#: a box's sides every ``step``; further out, at steps that double with the distance.
+NEAR_SIDES = 4
 
 
 def _real_rows(array: np.ndarray, name: str, columns: int, rows: str) -> np.ndarray:
@@ -259,9 +262,14 @@ def _samples(length: float, step: float) -> int:
 
 
 def box_outlines(
-    boxes: np.ndarray, step: float, *, mesh: tuple[int, tuple[int, int]] | None = None
+    boxes: np.ndarray,
+    step: float,
+    *,
+    mesh: tuple[int, tuple[int, int]] | None = None,
+    near: tuple[int, int] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Points along each box's outline, a point at most ``step`` pixels from the next.
+    """Points along each box's outline, a point at most ``step`` pixels from the next near
+    the image.
 
     With ``mesh``, the outline also holds every point where a side crosses an edge of the
     ``quads`` mesh's cells or triangles, and each box's points end with the mesh's vertices
@@ -279,6 +287,12 @@ def box_outlines(
         ``(grid, (H, W))``: the regular mesh of ``quads`` at ``grid`` over an image of that
         shape (its cells past the image too, as border modes draw them); None: the samples
         every ``step`` alone.
+    near : (int, int) or None, default None
+        The image's shape (H, W), ``mesh``'s where None: a side's points lie ``step`` apart
+        within :data:`NEAR_SIDES` times the image's larger side (plus 64 px) of it, and
+        further out at steps that double with the distance (f there is near its far-field
+        fit, a box there mostly past the canvas): a box of millions of pixels costs dozens
+        of points, not millions. None without ``mesh``: ``step`` apart everywhere.
 
     Returns
     -------
@@ -290,7 +304,7 @@ def box_outlines(
     ValueError
         For a ``step`` that is not a finite number > 0, boxes of another shape, a box that
         is not finite, or a side that would take more than ``MAX_EDGE_POINTS`` (2**22)
-        points.
+        points (near the image, with ``near``).
     TypeError
         For boxes that are not real numbers (a :class:`glmls.DtypeError`), or a ``step``
         that is not a number.
@@ -316,13 +330,23 @@ def box_outlines(
     ends = np.roll(corners, -1, axis=1).reshape(-1, 2)
     with np.errstate(invalid="ignore"):  # inf - inf: a length that _samples refuses
         lengths = np.abs(ends - starts).max(axis=1)
-    counts = np.array([_samples(float(length), step) for length in lengths], np.int64)
-    owner = np.repeat(np.arange(len(starts)), counts)
-    t = (np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)) / np.repeat(
-        counts, counts
-    )
+    if near is None and mesh is not None:
+        near = mesh[1]
+    window = None if near is None else _near_window(near)
+    if window is None or np.all(_inside(starts, window) & _inside(ends, window)):
+        counts = np.array([_samples(float(length), step) for length in lengths], np.int64)
+        owner = np.repeat(np.arange(len(starts)), counts)
+        t = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+        t = t / np.repeat(counts, counts)
+    else:
+        params = [
+            _side_parameters(a, b, float(length), step, window)
+            for a, b, length in zip(starts, ends, lengths, strict=True)
+        ]
+        owner = np.repeat(np.arange(len(starts)), [len(t) for t in params])
+        t = np.concatenate(params) if params else np.zeros(0)
     if mesh is not None and len(starts):
-        side, crossing = _mesh_crossings(starts, ends, *mesh)
+        side, crossing = _mesh_crossings(starts, ends, *mesh, window)
         owner, t = np.r_[owner, side], np.r_[t, crossing]
         order = np.lexsort((t, owner))
         owner, t = owner[order], t[order]
@@ -346,26 +370,75 @@ def box_outlines(
     return points, counts
 
 
+def _near_window(shape: tuple[int, int]) -> np.ndarray:
+    """(2, 2): the low and high corners (x, y) of the region :func:`box_outlines` samples
+    every ``step`` about an image of ``shape`` (H, W)."""
+    height, width = shape
+    reach = NEAR_SIDES * max(height, width) + 64.0
+    return np.array([[-0.5 - reach] * 2, [width - 0.5 + reach, height - 0.5 + reach]])
+
+
+def _inside(points: np.ndarray, window: np.ndarray) -> np.ndarray:
+    return np.all((points >= window[0]) & (points <= window[1]), axis=1)
+
+
+def _side_parameters(
+    start: np.ndarray, end: np.ndarray, length: float, step: float, window: np.ndarray
+) -> np.ndarray:
+    """The parameters t in [0, 1) of the points of the side ``start`` -> ``end`` (an axis's
+    segment of ``length`` px): those of the uniform samples every ``step`` (k / count) that
+    lie in ``window`` (low and high corners), then outward from it (or from the side's
+    point nearest it) at distances ``step`` x 2^j, and the side's start."""
+    count = max(1, math.ceil(length / step)) if math.isfinite(length) else 0
+    if count == 0 or length == 0:
+        _samples(length, step)  # a side that is not finite: refused as such
+        return np.zeros(1)
+    direction = (end - start) / length
+    axis = int(np.argmax(np.abs(direction)))
+    other = 1 - axis
+    along = (window[:, axis] - start[axis]) / (end[axis] - start[axis])  # t at the window
+    low, high = np.sort(along)
+    if not window[0, other] <= start[other] <= window[1, other]:
+        low = high = float(np.clip((low + high) / 2, 0.0, 1.0))  # the side passes it by
+    low, high = max(low, 0.0), min(high, 1.0)
+    if low > high:  # the window lies past one end: from the end nearest it
+        low = high = 0.0 if high < 0.0 else 1.0
+    first, last = math.ceil(low * count), math.floor(high * count)
+    if last - first + 1 > MAX_EDGE_POINTS:
+        _samples(step * (last - first + 1), step)  # refused: too many near the image
+    uniform = np.arange(max(first, 0), min(last, count - 1) + 1) / count
+    unit = step / length
+    reach = unit * 2.0 ** np.arange(0, 64)
+    outward = np.concatenate([low - reach[low - reach > 0.0], high + reach[high + reach < 1.0]])
+    t = np.unique(np.concatenate([[0.0], uniform, outward, [min(low, 1.0 - unit / 2)]]))
+    return t[(t >= 0.0) & (t < 1.0)]
+
+
 def outline_sets(
-    box_sets: list[np.ndarray], steps: list[float], meshes: list
+    box_sets: list[np.ndarray],
+    steps: list[float],
+    meshes: list,
+    shapes: list[tuple[int, int]] | None = None,
 ) -> list[tuple[np.ndarray, np.ndarray]]:
     """:func:`box_outlines` of each image's boxes ``box_sets[i]`` ((B_i, 4), checked), with
-    its ``steps[i]`` and ``meshes[i]``: the images of one step and mesh in one call (each
-    box's outline is its own, so the points are the same), split back per image. A
-    ``ValueError`` names the image (``boxes[i]``) and its step."""
+    its ``steps[i]``, ``meshes[i]`` and image shape ``shapes[i]`` (``near``): the images of
+    one step, mesh and shape in one call (each box's outline is its own, so the points are
+    the same), split back per image. A ``ValueError`` names the image (``boxes[i]``) and its
+    step."""
     out: list = [None] * len(box_sets)
     groups: dict[tuple, list[int]] = {}
-    for i, key in enumerate(zip(steps, meshes, strict=True)):
+    near = shapes if shapes is not None else [None] * len(box_sets)
+    for i, key in enumerate(zip(steps, meshes, near, strict=True)):
         groups.setdefault(key, []).append(i)
-    for (step, mesh), members in groups.items():
+    for (step, mesh, shape), members in groups.items():
         try:
             points, counts = box_outlines(
-                np.concatenate([box_sets[i] for i in members]), step, mesh=mesh
+                np.concatenate([box_sets[i] for i in members]), step, mesh=mesh, near=shape
             )
         except ValueError:
             for i in members:  # the first image at fault, named
                 try:
-                    box_outlines(box_sets[i], step, mesh=mesh)
+                    box_outlines(box_sets[i], step, mesh=mesh, near=shape)
                 except ValueError as error:
                     raise ValueError(f"boxes[{i}] with box_step={step:g}: {error}") from None
             raise
@@ -422,13 +495,20 @@ def _ranges(first: np.ndarray, last: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return rows, np.repeat(first, counts) + offsets
 
 
-def _mesh_crossings(starts: np.ndarray, ends: np.ndarray, grid: int, shape: tuple[int, int]):
+def _mesh_crossings(
+    starts: np.ndarray,
+    ends: np.ndarray,
+    grid: int,
+    shape: tuple[int, int],
+    window: np.ndarray | None = None,
+):
     """The sides and the t in (0, 1) where the axis-aligned sides a + t (b - a) (``starts``,
     ``ends``: (S, 2)) cross an edge of the regular mesh at ``grid`` over an image of
     ``shape`` (:class:`glmls.core.mesh.MeshLattice` ``corners``): the lines every ``grid``
     pixels from -0.5 and the image's last edge, and each cell's diagonal from its corner 00
     to 11, in the square cells of a mesh extended past the image (y - x a multiple of
-    ``grid``) and in the image's last column and row of cells, which its edge cuts short."""
+    ``grid``) and in the image's last column and row of cells, which its edge cuts short.
+    With ``window`` (low and high corners), only within it."""
     moving = np.abs(ends - starts).max(axis=1) > 0
     along = (starts[:, 1] != ends[:, 1]).astype(np.int64)  # 0: the side runs along x
     index = np.arange(len(starts))
@@ -436,6 +516,11 @@ def _mesh_crossings(starts: np.ndarray, ends: np.ndarray, grid: int, shape: tupl
     b = ends[index, along]
     level = starts[index, 1 - along]
     low, high = np.minimum(a, b), np.maximum(a, b)
+    if window is not None:  # a side past the window across has none: an empty range
+        low = np.maximum(low, window[0, along])
+        high = np.minimum(high, window[1, along])
+        past = (level < window[0, 1 - along]) | (level > window[1, 1 - along])
+        high = np.where(past, low - 1.0, high)
     sizes = np.array([shape[1], shape[0]], np.float64)  # (W, H)
     size_along, size_across = sizes[along], sizes[1 - along]
     found_side, found_value = [], []

@@ -23,11 +23,13 @@ import argparse
 import dataclasses
 import json
 import os
+import re
 import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
+from PIL import Image
 
 from ..analysis.jobs import check_jobs, check_scheduler, run_jobs
 from ..augment import PRESETS, Augment
@@ -167,6 +169,30 @@ class AugmentOutcome:
     unwritten: bool = False
 
 
+def _unnumbered(error: Exception) -> str:
+    """``error``'s message without the ``images[k]: `` that names a copy of one input in a
+    batch of its copies (the input's name stands before it)."""
+    return re.sub(r"^images\[\d+\]: ", "", str(error))
+
+
+def _check_draw(augment: Augment, source: Path, first: int, landmarks: object) -> None:
+    """``UsageError`` naming ``source`` where ``augment`` cannot draw for an image of its
+    size (the size read from the file's header: a text preset's ``--segments`` finer than
+    its pixels, say), so that no image is deformed before a later input is refused;
+    ``landmarks``: the labels' keypoints, the ``landmarks`` preset's handles. A file whose
+    header does not say is left to its reading, which names what is wrong."""
+    try:
+        with Image.open(source) as image:
+            shape = (image.height, image.width)
+    except Exception:  # the read names what is wrong
+        return
+    given = None if landmarks is None else [np.asarray(landmarks, np.float64)]
+    try:
+        augment.draw([shape], indices=[first], landmarks=given)
+    except (TypeError, ValueError) as error:
+        raise UsageError(f"{source}: {_unnumbered(error)}") from None
+
+
 def _names(task: AugmentTask) -> list[Path]:
     return _output_names(task.folder, task.source, task.count)
 
@@ -227,7 +253,7 @@ def augment_file(task: AugmentTask) -> AugmentOutcome:
                     indices=range(first, first + count),
                 )
             except (TypeError, ValueError) as error:
-                raise UsageError(f"{task.source}: {error}") from None
+                raise UsageError(f"{task.source}: {_unnumbered(error)}") from None
             for k, target in enumerate(targets[start : start + count]):
                 fd, name = tempfile.mkstemp(
                     prefix=f".{target.name}.", suffix=target.suffix, dir=task.folder
@@ -396,7 +422,7 @@ def run(args: argparse.Namespace) -> int:
     if args.transform is not None:  # else the preset's own
         warp_options["transform"] = args.transform
     try:  # the configuration, checked before any work
-        Augment(
+        configured = Augment(
             args.preset,
             seed=args.seed,
             warp_options=warp_options,
@@ -423,6 +449,9 @@ def run(args: argparse.Namespace) -> int:
                 f"the landmarks preset moves each image's keypoints; --labels gives none for "
                 f"{', '.join(bare[:3])}{' ...' if len(bare) > 3 else ''}"
             )
+    for i, source in enumerate(files):  # what each image's size refuses, before any work
+        marks = labels.get(source.name, {}).get("keypoints")
+        _check_draw(configured, source, i * args.n, marks if args.preset == "landmarks" else None)
     if not args.output.strip():  # Path("") is the working folder: not what "" says
         raise UsageError("OUT is empty: give the folder to write into (. for this one)")
     folder = Path(args.output)

@@ -388,3 +388,49 @@ def test_replay_names_the_record_whose_options_differ(gl, edited):
     expected = rf"params\[{edited}\]\['options'\] differ from params\[{other}\]'s in transform"
     with pytest.raises(ValueError, match=expected):
         aug.replay(images, params)
+
+
+@pytest.mark.parametrize("mesh", [(4, (32, 32)), None])
+def test_a_huge_box_is_sampled_sparsely_far_from_the_image(mesh):
+    """A box of two million pixels a side is sampled every step near the image (four times
+    its larger side, plus 64 px) and at steps that double beyond: hundreds of points, not
+    millions (it took 16 s and 10 GB)."""
+    points, counts = box_outlines(np.array([[-1e6, -1e6, 1e6, 1e6]]), 2.0, mesh=mesh, near=(32, 32))
+    assert len(points) < 1_000 and counts.tolist() == [len(points)]
+    assert points.min() == -1e6 and points.max() == 1e6  # the corners are points
+    # a side that crosses the image: every 2 px within the window, sparser past it
+    side, _ = box_outlines(np.array([[-1e6, 5.0, 1e6, 5.0]]), 2.0, mesh=mesh, near=(32, 32))
+    near = np.sort(side[np.abs(side[:, 0] - 16) < 150, 0])
+    assert np.diff(near).max() <= 2.0 + 1e-9
+    assert len(side) < 1_000
+
+
+def test_a_box_past_the_window_moves_as_the_dense_one_does(gl):
+    """A box reaching 3,000 px past a 32 x 32 image, sampled sparsely past 192 px: its moved
+    and clipped box is the densely sampled one's."""
+    augment = Augment("grid", seed=1, displacement=0.15)
+    image = np.zeros((1, 32, 32), np.uint8)
+    box = np.array([[[-3000.0, 4.0, 20.0, 25.0]]])
+    sparse = augment(image, boxes=box)
+    grid = sparse.params[0]["options"]["grid"]
+    # every 2 px and every crossing of the mesh: a window that holds the whole box
+    points, _ = box_outlines(box[0], 2.0, mesh=(grid, (32, 32)), near=(4096, 4096))
+    moved = augment.replay(image, sparse.params, keypoints=points[None]).keypoints[0]
+    dense = np.r_[moved.min(axis=0), moved.max(axis=0)]
+    dense = np.clip(dense, -0.5, 31.5)
+    np.testing.assert_allclose(sparse.boxes[0, 0], dense, atol=0.05)
+
+
+def test_a_box_given_without_area_stays_invalid(gl):
+    """A line or a point given as a box has no object to keep: the map bends its moved
+    outline into a box with an area, but boxes_valid stays False (as at no displacement);
+    a box with an area beside them stays valid."""
+    boxes = np.array([[[10.0, 5.0, 10.0, 20.0], [-0.5, 0.0, -0.5, 10.0], [7.0, 7.0, 7.0, 7.0],
+                       [4.0, 4.0, 14.0, 12.0]]])  # fmt: skip
+    image = np.zeros((1, 32, 32), np.uint8)
+    bent = Augment("grid", seed=0, displacement=0.1)(image, boxes=boxes)
+    assert bent.boxes_valid[0].tolist() == [False, False, False, True]
+    width = bent.boxes[0, 0, 2] - bent.boxes[0, 0, 0]
+    assert width > 0.1  # the line's outline did bend into an area
+    still = Augment("grid", seed=0, displacement=0.0)(image, boxes=boxes)
+    assert still.boxes_valid[0].tolist() == [False, False, False, True]

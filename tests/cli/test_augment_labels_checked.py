@@ -58,3 +58,21 @@ def test_the_command_line_names_the_box_and_writes_nothing(tmp_path):
     assert "labels.json: 'b.png' boxes[1] [9.0, 9.0, 3.0, 12.0] has x_max" in result.stderr
     assert len(result.stderr.strip().splitlines()) == 1, result.stderr
     assert not (tmp_path / "out").exists()
+
+
+def test_an_option_one_input_s_size_refuses_is_named_before_any_image(tmp_path):
+    """--segments 100 suits a 128-wide crop and not a 40-wide one: the command names the
+    narrow input (not its place in a batch of copies) before it deforms the wide one."""
+    (tmp_path / "in").mkdir()
+    glmls.imwrite(tmp_path / "in" / "a.png", np.zeros((32, 128), np.uint8))
+    glmls.imwrite(tmp_path / "in" / "b.png", np.zeros((32, 40), np.uint8))
+    result = glmls_cli(
+        "augment", "in", "out", "--n", "2", "--preset", "text-distort", "--segments", "100",
+        cwd=tmp_path,
+    )  # fmt: skip
+    assert result.returncode == 2, result.stderr
+    assert result.stderr.strip().splitlines() == [
+        "glmls augment: in/b.png: segments = 100 is more than one per pixel of the image's "
+        "width (40): at most 64 for this image"
+    ]
+    assert not (tmp_path / "out").exists()
