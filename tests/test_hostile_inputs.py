@@ -437,7 +437,7 @@ def test_many_keypoints_on_a_folded_mesh_take_bounded_memory(gl):
 
 def test_keypoints_tested_in_blocks_are_those_tested_at_once(gl, monkeypatch):
     at_once = folded_keypoints(3_000)
-    monkeypatch.setattr(glmls.batch.labels, "COVER_BLOCK", 5_000)  # a few points a block
+    monkeypatch.setattr(glmls.batch.covering, "COVER_BLOCK", 5_000)  # a few points a block
     in_blocks = folded_keypoints(3_000)
     assert_array_equal(in_blocks[0], at_once[0])
     assert_array_equal(in_blocks[1], at_once[1])

@@ -595,9 +595,7 @@ class Augment:
         keypoints, masks, boxes, polygons = labels
         count = len(items)
         marks, stacked_marks = _keypoint_list(keypoints, count)
-        box_list, stacked_boxes = (None, False)
-        if boxes is not None:
-            box_list, stacked_boxes = lab.check_boxes(boxes, count)
+        box_list, stacked_boxes = (None, False) if boxes is None else lab.check_boxes(boxes, count)
         polygon_list = None if polygons is None else lab.check_polygons(polygons, count)
         options = dict(params[0]["options"])
         check_one_options(params)  # one warp_batch call: one set of options
@@ -617,10 +615,9 @@ class Augment:
     @staticmethod
     def _points(marks, box_list, polygon_list, meshes, labels, shapes):
         """Every image's points to move: its keypoints, box outlines (with the crossings of
-        ``meshes[i]``, the image's ``quads`` mesh where it has one; ``box_step`` of
-        ``labels[i]``, its draw's label options; sampled sparsely far past the image of
-        shape ``shapes[i]``) and polygons (densified as they say), one after another;
-        ``parts`` records where each kind lies."""
+        ``meshes[i]``, its ``quads`` mesh where it has one; ``box_step`` of ``labels[i]``;
+        sparse far past its ``shapes[i]``) and polygons (densified as they say), one after
+        another; ``parts`` records where each kind lies."""
         if marks is None and box_list is None and polygon_list is None:
             return None, None
         points, parts = [], []
@@ -635,8 +632,8 @@ class Augment:
                 part["keypoints"] = len(marks[i])
             if box_list is not None:
                 outline, part["boxes"] = outlines[i]
-                given = box_list[i]  # a line or a point stays invalid however it bends
-                part["areas"] = (given[:, 2] > given[:, 0]) & (given[:, 3] > given[:, 1])
+                b = box_list[i]  # a line or a point stays invalid however it bends
+                part["areas"] = (b[:, 2] > b[:, 0]) & (b[:, 3] > b[:, 1])
                 pieces.append(outline)
             if polygon_list is not None:
                 try:

@@ -268,8 +268,7 @@ def box_outlines(
     mesh: tuple[int, tuple[int, int]] | None = None,
     near: tuple[int, int] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Points along each box's outline, a point at most ``step`` pixels from the next near
-    the image.
+    """Points along each box's outline, at most ``step`` pixels apart near the image.
 
     With ``mesh``, the outline also holds every point where a side crosses an edge of the
     ``quads`` mesh's cells or triangles, and each box's points end with the mesh's vertices

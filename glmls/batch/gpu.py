@@ -60,9 +60,9 @@ from ..imaging.options import WarpOptions
 from ..imaging.quads import key_layout
 from ..imaging.readback import read_rgba8
 from ..imaging.source import BORDERS, SourceImage
+from .covering import MeshVertices
 from .drawer import BatchDrawer, mesh_stride, upload_meshes
 from .fill import array_form, embedding_flags, runs, scan
-from .labels import MeshVertices
 
 __all__ = [
     "CHUNK_BYTES",
@@ -425,7 +425,7 @@ class BatchQuads(BatchDrawer):
     def vertices(self, lattices, lattice: MeshLattice) -> MeshVertices:
         """The last chunk's mesh vertices in pixels (f at the lattice of each image of
         ``lattices``, its chunk's), read back once and converted to float64 where indexed
-        (:class:`~glmls.batch.labels.MeshVertices`)."""
+        (:class:`~glmls.batch.covering.MeshVertices`)."""
         stride = mesh_stride(lattice)
         count = len(lattices)
         self._gl.mgl.memory_barrier()  # the lattice passes' stores before the read

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import glmls
+import glmls.batch.covering
 import glmls.batch.labels
 from glmls.batch.embedding import fold_candidates
 from glmls.batch.labels import mesh_keypoints
@@ -42,7 +43,7 @@ def test_each_image_keeps_the_flags_of_its_mesh_alone(gl, rng, monkeypatch, bloc
     points = [rng.uniform(-1, 36, (k, 2)) for k in sizes]
     alone = [mesh_keypoints(lattice, mesh, p, None) for mesh, p in zip(meshes, points, strict=True)]
     if block is not None:
-        monkeypatch.setattr(glmls.batch.labels, "_NEAR_BLOCK", block)
+        monkeypatch.setattr(glmls.batch.covering, "_NEAR_BLOCK", block)
     images = np.repeat(np.arange(len(sizes)), sizes)
     moved, valid = mesh_keypoints(lattice, meshes, np.concatenate(points), None, images)
     ends = np.cumsum(sizes)
