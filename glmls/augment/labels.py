@@ -290,7 +290,7 @@ def box_outlines(
         The image's shape (H, W), ``mesh``'s where None: a side's points lie ``step`` apart
         within :data:`NEAR_SIDES` times the image's larger side (plus 64 px) of it, and
         further out at steps that double with the distance (f there is near its far-field
-        fit, a box there mostly past the canvas): a box of millions of pixels costs dozens
+        fit, a box there mostly past the canvas): a box of millions of pixels costs hundreds
         of points, not millions. None without ``mesh``: ``step`` apart everywhere.
 
     Returns
@@ -388,9 +388,10 @@ def _side_parameters(
     segment of ``length`` px): those of the uniform samples every ``step`` (k / count) that
     lie in ``window`` (low and high corners), then outward from it (or from the side's
     point nearest it) at distances ``step`` x 2^j, and the side's start."""
-    count = max(1, math.ceil(length / step)) if math.isfinite(length) else 0
-    if count == 0 or length == 0:
-        _samples(length, step)  # a side that is not finite: refused as such
+    if not math.isfinite(length) or length / step > 2.0**52:
+        _samples(length, step)  # not finite, or past float64's integers: refused as such
+    count = max(1, math.ceil(length / step))
+    if length == 0:
         return np.zeros(1)
     direction = (end - start) / length
     axis = int(np.argmax(np.abs(direction)))

@@ -169,6 +169,10 @@ class AugmentOutcome:
     unwritten: bool = False
 
 
+#: The EXIF tag whose values 5 to 8 turn the image a quarter as it is read (imread does).
+_ORIENTATION = 0x0112
+
+
 def _unnumbered(error: Exception) -> str:
     """``error``'s message without the ``images[k]: `` that names a copy of one input in a
     batch of its copies (the input's name stands before it)."""
@@ -184,6 +188,8 @@ def _check_draw(augment: Augment, source: Path, first: int, landmarks: object) -
     try:
         with Image.open(source) as image:
             shape = (image.height, image.width)
+            if image.getexif().get(_ORIENTATION, 1) in (5, 6, 7, 8):  # read turned a quarter
+                shape = shape[::-1]
     except Exception:  # the read names what is wrong
         return
     given = None if landmarks is None else [np.asarray(landmarks, np.float64)]

@@ -81,7 +81,7 @@ class MeshBands:
         """The band just evaluated (``dims``: points per row, rows, as yielded) copied on the
         GPU into the mesh texture (RG32F, scaled: vertex (i, j) of the band is texel (i, j);
         one texture for all the lattice's bands), bound to ``MESH``. ``ValueError`` where the
-        band is wider than a texture (callers check :meth:`fits_texture` first)."""
+        band is wider than a texture (:meth:`bind_mesh` binds the buffer for those)."""
         if dims[0] > self.max_texture_size:
             raise ValueError(
                 f"a mesh band of {dims[0]} vertices per row does not fit a GL texture "

@@ -117,7 +117,8 @@ class CellScan:
         """The quads of ``lattice`` (corners of the source image, possibly with a margin)
         into the bound framebuffer, whose viewport has the size of ``frame`` (the output
         canvas); ``target`` is its colour texture. False (nothing drawn) where the triangle
-        keys do not fit in 31 bits or a row of the mesh does not fit the mesh texture.
+        keys do not fit in 31 bits; a mesh whose rows do not fit the mesh texture is read
+        from the mesh buffer (:meth:`MeshBands.bind_mesh`).
         ``coords``: write the source points instead of colours (the backward method's first
         guess; ``source`` unused). ``border``: the code of the rule for source pixels past
         the image (``WARP_BORDER``)."""

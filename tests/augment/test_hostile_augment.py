@@ -434,3 +434,11 @@ def test_a_box_given_without_area_stays_invalid(gl):
     assert width > 0.1  # the line's outline did bend into an area
     still = Augment("grid", seed=0, displacement=0.0)(image, boxes=boxes)
     assert still.boxes_valid[0].tolist() == [False, False, False, True]
+
+
+@pytest.mark.parametrize("mesh", [(4, (32, 32)), None])
+def test_a_side_past_float64_s_integers_is_refused_with_a_window(mesh):
+    """A side of 2e20 px has more step counts than float64 holds whole: refused as a side
+    of too many points, as without a window, not sampled as Python integers."""
+    with pytest.raises(ValueError, match="use a larger step"):
+        box_outlines(np.array([[-1e20, 5.0, 1e20, 10.0]]), 2.0, mesh=mesh, near=(32, 32))

@@ -76,3 +76,21 @@ def test_an_option_one_input_s_size_refuses_is_named_before_any_image(tmp_path):
         "width (40): at most 64 for this image"
     ]
     assert not (tmp_path / "out").exists()
+
+
+def test_the_size_checked_up_front_is_the_size_read_after_exif_turns_it(tmp_path):
+    """A crop stored 400 x 40 with EXIF orientation 6 is read 40 x 400 (imread turns it):
+    --segments 100 suits it, as it suits the same pixels stored upright."""
+    from PIL import Image
+
+    stored = Image.fromarray(np.zeros((400, 40), np.uint8))
+    exif = stored.getexif()
+    exif[0x0112] = 6
+    (tmp_path / "in").mkdir()
+    stored.save(tmp_path / "in" / "line.jpg", exif=exif)
+    result = glmls_cli(
+        "augment", "in", "out", "--n", "1", "--preset", "text-distort", "--segments", "100",
+        cwd=tmp_path,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert glmls.imread(tmp_path / "out" / "line_000.jpg").shape[:2] == (40, 400)
