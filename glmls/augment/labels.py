@@ -288,7 +288,7 @@ def box_outlines(
         every ``step`` alone.
     near : (int, int) or None, default None
         The image's shape (H, W), ``mesh``'s where None: a side's points lie ``step`` apart
-        within :data:`NEAR_SIDES` times the image's larger side (plus 64 px) of it, and
+        within four times the image's larger side (plus 64 px) of it, and
         further out at steps that double with the distance (f there is near its far-field
         fit, a box there mostly past the canvas): a box of millions of pixels costs hundreds
         of points, not millions. None without ``mesh``: ``step`` apart everywhere.
