@@ -29,13 +29,12 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from PIL import Image
 
 from ..analysis.jobs import check_jobs, check_scheduler, run_jobs
 from ..augment import PRESETS, Augment
 from ..core.handles import COORDINATE_LIMIT
 from ..files.atomic import remove_leftovers
-from ..files.images import WRITABLE, check_writable, image_bytes
+from ..files.images import WRITABLE, check_writable, image_bytes, shown_shape
 from ..files.parsing import read_text
 from ..imaging.source import BORDERS, INTERPOLATIONS, check_image
 from .augment_outputs import former_outputs, remove_former, rename_all
@@ -169,10 +168,6 @@ class AugmentOutcome:
     unwritten: bool = False
 
 
-#: The EXIF tag whose values 5 to 8 turn the image a quarter as it is read (imread does).
-_ORIENTATION = 0x0112
-
-
 def _unnumbered(error: Exception) -> str:
     """``error``'s message without the ``images[k]: `` that names a copy of one input in a
     batch of its copies (the input's name stands before it)."""
@@ -185,12 +180,8 @@ def _check_draw(augment: Augment, source: Path, first: int, landmarks: object) -
     its pixels, say), so that no image is deformed before a later input is refused;
     ``landmarks``: the labels' keypoints, the ``landmarks`` preset's handles. A file whose
     header does not say is left to its reading, which names what is wrong."""
-    try:
-        with Image.open(source) as image:
-            shape = (image.height, image.width)
-            if image.getexif().get(_ORIENTATION, 1) in (5, 6, 7, 8):  # read turned a quarter
-                shape = shape[::-1]
-    except Exception:  # the read names what is wrong
+    shape = shown_shape(source)
+    if shape is None:
         return
     given = None if landmarks is None else [np.asarray(landmarks, np.float64)]
     try:

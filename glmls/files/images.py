@@ -48,6 +48,7 @@ __all__ = [
     "image_bytes",
     "imread",
     "imwrite",
+    "shown_shape",
 ]
 
 #: Images of more pixels are refused unless ``max_pixels`` says otherwise: 16384 x 16384, the
@@ -183,6 +184,34 @@ def imread(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> 
         if isinstance(error, ValueError) and str(error).startswith(str(path)):
             raise  # already ours
         raise ValueError(f"{path}: not a readable image (corrupt or truncated?): {error}") from None
+
+
+def shown_shape(path: str | os.PathLike) -> tuple[int, int] | None:
+    """The (H, W) of the array :func:`imread` gives for ``path``, from the file's header and
+    orientation, without decoding its pixels (but a PNG whose text chunks follow them, which
+    Pillow reads whole): a quarter turn (EXIF or TIFF orientation 5 to 8) swaps the stored
+    sides, each format's orientation read where :func:`imread` reads it. None where the
+    header does not say (:func:`imread` then names what is wrong)."""
+    path = as_path(path)
+    try:
+        head = read_head(path, 32)
+        if head.startswith(_PNG) and len(head) >= 26 and head[24] == 16:
+            width, height = struct.unpack(">II", head[16:24])
+            code = _png_chunks(path.read_bytes())[0]
+        elif head[:2] in (b"P3", b"P6") and (header := is_ppm16(read_head(path, 4096))):
+            (width, height), code = header[:2], 1
+        elif head[:4] in TIFF_SIGNATURES:
+            with quiet_tifffile(), tifffile.TiffFile(path) as tiff:
+                page = tiff.pages[0]
+                width, height = int(page.imagewidth), int(page.imagelength)
+                orientation = page.tags.get("Orientation")
+                code = int(orientation.value) if orientation is not None else 1
+        else:
+            with Image.open(path) as image:
+                (width, height), code = image.size, int(image.getexif().get(0x0112, 1))
+    except Exception:  # whatever the header lacks, the read names
+        return None
+    return (width, height) if code in (5, 6, 7, 8) else (height, width)
 
 
 def _read_png16(path: Path, head: bytes, max_pixels: int) -> np.ndarray:

@@ -110,3 +110,47 @@ def test_imread_gives_other_tiff_dtypes_as_stored(tmp_path, dtype):
     assert image.dtype == np.dtype(dtype)
     np.testing.assert_array_equal(image, stored)
     assert dtype in glmls.imread.__doc__
+
+
+def _tiff_turned(path, stored, planar=False):
+    data = np.stack([stored] * 3) if planar else stored
+    tifffile.imwrite(
+        path,
+        data,
+        photometric="rgb" if planar else "minisblack",
+        planarconfig="separate" if planar else None,
+        extratags=[(274, "H", 1, 6, True)],
+    )
+
+
+def test_the_shown_shape_is_the_shape_imread_gives(tmp_path):
+    """shown_shape reads each format's orientation where imread does: a raw EXIF profile and
+    an eXIf chunk at 8 and 16 bits, a JPEG's EXIF, a TIFF's tag (planar too), none in a
+    16-bit PPM; no image or no file: None."""
+    from glmls.files.images import shown_shape
+
+    stored = np.arange(60, dtype=np.uint8).reshape(6, 10)
+    exif = Image.Exif()
+    exif[0x0112] = 3
+    files = {
+        "raw8.png": _png(stored, _raw_profile(b"zTXt", 6)),
+        "raw16.png": _png(stored.astype(np.uint16) * 257, _raw_profile(b"tEXt", 8)),
+        "exif16.png": _png(stored.astype(np.uint16), _chunk(b"eXIf", exif.tobytes())),
+        "plain.png": _png(stored),
+    }
+    for name, data in files.items():
+        (tmp_path / name).write_bytes(data)
+    turned = Image.Exif()
+    turned[0x0112] = 6
+    Image.fromarray(stored).save(tmp_path / "turned.jpg", exif=turned)
+    _tiff_turned(tmp_path / "turned.tif", stored)
+    _tiff_turned(tmp_path / "planar.tif", stored, planar=True)
+    rgb = np.repeat(stored[..., None].astype(">u2") * 300, 3, axis=2)
+    (tmp_path / "wide.ppm").write_bytes(b"P6\n10 6\n65535\n" + rgb.tobytes())
+    names = [*files, "turned.jpg", "turned.tif", "planar.tif", "wide.ppm"]
+    for name in names:
+        assert shown_shape(tmp_path / name) == glmls.imread(tmp_path / name).shape[:2], name
+    assert sum(shown_shape(tmp_path / n) == (10, 6) for n in names) == 5  # the turned ones
+    (tmp_path / "text.png").write_bytes(b"not an image")
+    assert shown_shape(tmp_path / "text.png") is None
+    assert shown_shape(tmp_path / "missing.png") is None
