@@ -69,7 +69,8 @@ def covered_earlier(
     index, tile = _near_tiles(tiles, which, points)
     hidden = np.zeros(len(points), bool)
     rows, across = pieces[0].shape[1:]
-    block = max(1, COVER_BLOCK // (4 * _TILE))
+    block = max(1, COVER_BLOCK // (4 * _TILE))  # (point, tile) pairs: their rows' boxes
+    piece_block = max(1, COVER_BLOCK // (2 * (_TILE + 1)))  # (point, piece): its vertices
     for start in range(0, len(index), block):
         pairs = slice(start, start + block)
         point, mesh = index[pairs], which[index[pairs]]
@@ -79,12 +80,10 @@ def covered_earlier(
         lx, ly, hx, hy = (box[mesh[:, None], row, tile_col[:, None]] for box in pieces)
         real = tile_row[:, None] * _TILE + np.arange(_TILE) < rows  # a last tile's fewer rows
         pair, k = np.nonzero((lx <= qx) & (qx <= hx) & (ly <= qy) & (qy <= hy) & real)
-        slot = row[pair, k] * across + tile_col[pair]
-        for part in range(0, len(pair), max(1, COVER_BLOCK // (2 * (_TILE + 1)))):
-            chunk = slice(part, part + max(1, COVER_BLOCK // (2 * (_TILE + 1))))
-            _cover_pairs(
-                vertices, chosen, which, points, own, point[pair][chunk], slot[chunk], hidden
-            )
+        slot, held = row[pair, k] * across + tile_col[pair], point[pair]
+        for part in range(0, len(pair), piece_block):
+            chunk = slice(part, part + piece_block)
+            _cover_pairs(vertices, chosen, which, points, own, held[chunk], slot[chunk], hidden)
     return hidden
 
 
@@ -152,8 +151,8 @@ def _near_tiles(boxes: list[np.ndarray], which: np.ndarray, points: np.ndarray):
             mine = mine[:1]
         lx, ly, hx, hy = (box[mine] for box in boxes)  # (B, tiles) or (1, tiles)
         qx, qy = points[start : start + block, :1], points[start : start + block, 1:]
-        index, row = np.nonzero((lx <= qx) & (qx <= hx) & (ly <= qy) & (qy <= hy))
-        found.append((index + start, row))
+        index, tile = np.nonzero((lx <= qx) & (qx <= hx) & (ly <= qy) & (qy <= hy))
+        found.append((index + start, tile))
     if not found:
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
     return np.concatenate([f[0] for f in found]), np.concatenate([f[1] for f in found])

@@ -98,7 +98,6 @@ class CellScan:
         self._fast_dims = (1, 1)  # the mesh of the last fast scan
         self._fold_capacity = 0  # and the length of its list of folded cells
         self._pieces = ScanPieces(gl)  # large cells on llvmpipe (common/pieces.glsl)
-        self._mesh_defines: dict[str, bool] = {}  # how the passes read the mesh being drawn
 
     @current
     def draw(
@@ -127,7 +126,7 @@ class CellScan:
         layout = key_layout(lattice, source_pixel=nearest)
         if layout is None:
             return False
-        self._mesh_defines = self._bands.mesh_defines(lattice)
+        mesh = self._bands.mesh_defines(lattice)  # how the passes read the mesh
         sub_bits, col_shift, row_shift = layout
         fused = nearest and not flip_y and _packable(source, target)
         sc = kernel.scaling
@@ -153,7 +152,9 @@ class CellScan:
             self._prepare_fused(values["u_fixup_capacity"])  # type: ignore[arg-type]
         if fast:
             values.update(self._hot_tiles(lattice, frame))
-        cells = self._program(nearest=nearest, fused=fused, fast=False, border=border, hot=fast)
+        cells = self._program(
+            mesh, nearest=nearest, fused=fused, fast=False, border=border, hot=fast
+        )
         set_uniforms(cells, values)
         bands = 0
         for first, dims in self._bands(kernel, lattice):
@@ -164,7 +165,7 @@ class CellScan:
                 self._bind_fused(source, target)  # type: ignore[arg-type]
             if fast:
                 band = values | {"u_mesh_dims": dims, "u_first_row": first}
-                self._scan_fast(cells, band, border)
+                self._scan_fast(cells, band, border, mesh)
             else:
                 self._pieces.run_1d(
                     cells, (dims[0] - 1) * (dims[1] - 1), max_groups=self._max_groups
@@ -220,8 +221,16 @@ class CellScan:
         return {"u_hot_shift": shift, "u_hot_words": words}
 
     def _program(
-        self, *, nearest: bool, fused: bool, fast: bool, border: int, hot: bool = False
+        self,
+        mesh: dict[str, bool],
+        *,
+        nearest: bool,
+        fused: bool,
+        fast: bool,
+        border: int,
+        hot: bool = False,
     ) -> moderngl.ComputeShader:
+        """The scan's program; ``mesh``: how it reads the mesh (:meth:`MeshBands.mesh_defines`)."""
         return self._gl.compute(
             "warp/cells.comp.glsl",
             {
@@ -230,12 +239,16 @@ class CellScan:
                 "WARP_CELLS_FAST": fast,
                 "WARP_CELLS_HOT": hot,
                 "WARP_BORDER": border if fused else 0,
-                **self._mesh_defines,
+                **mesh,
             },
         )
 
     def _scan_fast(
-        self, keyed: moderngl.ComputeShader, values: dict[str, object], border: int
+        self,
+        keyed: moderngl.ComputeShader,
+        values: dict[str, object],
+        border: int,
+        mesh: dict[str, bool],
     ) -> None:
         """The fused scan of a whole mesh (one band): the pass without keys, which lists the
         folded cells; the embedding test, which marks the tiles near them and lists the
@@ -244,16 +257,15 @@ class CellScan:
         (warp/cells_check.comp.glsl): nothing where the mesh is an embedding, the cells of
         the listed blocks that reach a hot tile (``keyed``, ``WARP_CELLS_HOT``) where cells
         fold inside a simple boundary, every cell (a keyed pass without it) where the
-        boundary fails or more cells fold than the list holds (one in 16)."""
+        boundary fails or more cells fold than the list holds (one in 16). ``mesh``: as
+        :meth:`_program` takes it."""
         gl = self._gl
         stages = {
-            stage: gl.compute(
-                "warp/cells_check.comp.glsl", {"WARP_CHECK_STAGE": stage, **self._mesh_defines}
-            )
+            stage: gl.compute("warp/cells_check.comp.glsl", {"WARP_CHECK_STAGE": stage, **mesh})
             for stage in (1, 2, 3, 6)
         }
-        fast = self._program(nearest=True, fused=True, fast=True, border=border)
-        every = self._program(nearest=True, fused=True, fast=False, border=border)
+        fast = self._program(mesh, nearest=True, fused=True, fast=True, border=border)
+        every = self._program(mesh, nearest=True, fused=True, fast=False, border=border)
         nx, ny = self._fast_dims = values["u_mesh_dims"]  # type: ignore[misc]
         cells = (nx - 1) * (ny - 1)
         blocks = math.ceil((nx - 1) / _BLOCK) * math.ceil((ny - 1) / _BLOCK)
@@ -336,7 +348,8 @@ class CellScan:
             )
         else:
             defines = {"WARP_LINEAR": linear, "WARP_OUTPUT_COORDS": coords, "WARP_BORDER": border}
-            program = self._gl.program(vertex, "warp/cells.frag.glsl", defines | self._mesh_defines)
+            mesh = self._bands.mesh_defines(lattice)
+            program = self._gl.program(vertex, "warp/cells.frag.glsl", defines | mesh)
         set_uniforms(program, values | {"u_flip_y": flip_y})
         if source is not None and not coords:
             mode = moderngl.LINEAR if linear else moderngl.NEAREST
