@@ -306,7 +306,7 @@ def _need(
 
 
 def _finer(faces: list, images: np.ndarray, grown: np.ndarray, grid: int) -> list:
-    """Faces' points (as :func:`_faces`' entries, one (axis, end, points, 1, points) per
+    """Faces' points (as :func:`_faces`' entries, one (axis, end, count, 1, points) per
     face, for :func:`_need`) sampled again, finer, in the cells between ``faces``' samples
     whose images' box meets ``grown`` (the canvas's box) and spans more than
     :data:`_FINE_STEP`: so many a side that their images lie about that far apart where f
