@@ -55,7 +55,13 @@ from ..gl.dispatch import (
 from ..gl.resources import keep_framebuffer
 from ..gl.tables import TABLE_WIDTH
 from ..imaging.frame import Frame
-from ..imaging.inverse import ACCEPT_STEPS, NEWTON_ACCEPT, NEWTON_STEPS, NEWTON_TOLERANCE
+from ..imaging.inverse import (
+    ACCEPT_STEPS,
+    NEWTON_ACCEPT,
+    NEWTON_STEPS,
+    NEWTON_TOLERANCE,
+    RESCUE_RUNS,
+)
 from ..imaging.options import WarpOptions
 from ..imaging.quads import key_layout
 from ..imaging.readback import read_rgba8
@@ -304,7 +310,7 @@ class BatchQuads(BatchDrawer):
             coords.bind_to_image(bindings.INVERSE_MAP.index, read=True, write=True)
             program.run(group_x=groups[0], group_y=groups[1], group_z=rows)
             set_uniforms(rescue, uniforms)
-            second.finish(rescue)
+            second.finish_runs(rescue, RESCUE_RUNS)
         mgl.memory_barrier()
         maps = (coords, atlas, frame)
         return self.sample_maps(sources, maps, options, background, labels, into)

@@ -78,6 +78,7 @@ BATCH_OUTPUT = Binding("BATCH_OUTPUT", "storage", 25, "batches: the chunk's outp
 BATCH_CHECK = Binding("BATCH_CHECK", "storage", 26, "batches: each image's embedding test")
 BATCH_LISTS = Binding("BATCH_LISTS", "storage", 27, "batches: the images each scan takes")
 RESCUE = Binding("RESCUE", "storage", 28, "backward: pixels Newton left, their dispatch")
+RESCUE_RUNS = Binding("RESCUE_RUNS", "storage", 21, "backward: the second pass's later runs")
 PIECES = Binding("PIECES", "storage", 29, "scans: the dispatch of large primitives' pieces")
 BATCH_POINTS = Binding("BATCH_POINTS", "storage", 30, "batches: each image's points to evaluate")
 # -- uniform blocks ----------------------------------------------------------------------------
@@ -156,6 +157,7 @@ ALL = (
     BATCH_CHECK,
     BATCH_LISTS,
     RESCUE,
+    RESCUE_RUNS,
     PIECES,
     BATCH_POINTS,
     HANDLES_BLOCK,

@@ -213,6 +213,10 @@ _RESCUE = "second pass"
 #: Its list's header before a first pass: an indirect dispatch of (0, 1, 1) work groups, and
 #: no item.
 _NO_RESCUE = bytes(4) + (1).to_bytes(4, "little") * 2 + bytes(4)
+#: The shared object of :meth:`SecondPass.finish_runs` (the later runs' indirect dispatches,
+#: one per run), and the bytes of one dispatch's (x, y, z).
+_RESCUE_RUNS = "second pass runs"
+_DISPATCH_BYTES = 12
 
 
 class SecondPass:
@@ -266,3 +270,24 @@ class SecondPass:
         self._gl.mgl.memory_barrier()  # the list and its size, before the dispatch reads them
         set_uniforms(program, self._uniforms)
         program.run_indirect(buffer)
+
+    def finish_runs(self, program: moderngl.ComputeShader, runs: int) -> None:
+        """Run ``program``, the second pass, ``runs`` times over the listed items, its
+        ``u_run`` 1, 2, ...: run r + 1 over the whole list where run r marked an item done
+        (``second_pass_done``, with ``SECOND_PASS_RUNS``), else over none (an indirect
+        dispatch of no work group, ``BIND_RESCUE_RUNS``): later runs cost nothing once a run
+        changes nothing."""
+        gl = self._gl
+        dispatches = gl.shared(
+            (_RESCUE_RUNS, runs), lambda: gl.mgl.buffer(reserve=_DISPATCH_BYTES * runs)
+        )
+        dispatches.write(_NO_RESCUE[:_DISPATCH_BYTES] * runs)
+        dispatches.bind_to_storage_buffer(bindings.RESCUE_RUNS.index)
+        for run in range(1, runs + 1):
+            set_uniforms(program, {"u_run": run})
+            if run == 1:
+                self.finish(program)
+                continue
+            self._buffer().bind_to_storage_buffer(bindings.RESCUE.index)
+            gl.mgl.memory_barrier()  # the run before's results and its raise of this dispatch
+            program.run_indirect(dispatches, offset=_DISPATCH_BYTES * (run - 2))

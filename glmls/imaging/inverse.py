@@ -41,6 +41,7 @@ __all__ = [
     "NEWTON_TOLERANCE",
     "POINTS_NEWTON_STEPS",
     "POINTS_TOLERANCE",
+    "RESCUE_RUNS",
     "STRETCH_STEP",
     "InverseSolver",
     "accept_residual",
@@ -136,6 +137,15 @@ def accepted(
     return valid
 
 
+#: How many times the backward method's second pass runs over the pixels the first left
+#: (``warp/inverse.comp.glsl``'s ``u_run``): each run starts only from the pixels the run
+#: before found, so that a region of pixels whose first guesses all miss (the mesh's cells
+#: that f stretches over it, where the rigid fit's rotation turns fast) fills from its rim;
+#: a run follows only where the run before found a pixel
+#: (:meth:`~glmls.gl.dispatch.SecondPass.finish_runs`).
+RESCUE_RUNS = 8
+
+
 def length_unit(kernel: MLSKernel) -> float:
     """The length, pixels, of which the inverse at points takes its difference step and
     tolerances as fixed shares: 1, or less where the box of the handles (and of the MLS's
@@ -219,8 +229,9 @@ class InverseSolver:
         most Newton's longest step where the mesh covered the pixel, else a few pixels. It
         runs damped Newton from the first's point and the pixel where Newton did not
         converge, then from the covered neighbours' points (for a point outside, only those
-        far from it, which show another sheet of a fold). Leaves the texture's framebuffer
-        bound."""
+        far from it, which show another sheet of a fold), and runs again (up to
+        :data:`RESCUE_RUNS` runs) from the points of the pixels the run before found. Leaves
+        the texture's framebuffer bound."""
         height, width = lattice.shape
         # first, so that a pass the driver cannot run is refused before the first guess's
         # mesh, which with many handles over a large image takes long on a CPU renderer
@@ -267,7 +278,7 @@ class InverseSolver:
         if rescue is not None:
             kernel.bind(rescue, lattice.shape)
             set_uniforms(rescue, uniforms)
-            second.finish(rescue)
+            second.finish_runs(rescue, RESCUE_RUNS)
         self._gl.mgl.memory_barrier()
         return texture
 

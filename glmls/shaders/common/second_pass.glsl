@@ -7,6 +7,9 @@
 //   uint second_pass_listed()  the second pass: how many items the list holds
 //   uint second_pass_stride()  the second pass: from one of an invocation's items to its next,
 //                              where the list holds more than the dispatch's invocations
+//   void second_pass_done()    SECOND_PASS_RUNS 1, a second pass that runs several times
+//                              (SecondPass.finish_runs, its run u_run = 1, 2, ...): an item was
+//                              done in this run, so the next runs over the list (else over none)
 layout(std430, binding = BIND_RESCUE) buffer SecondPassList {
     uint second_pass_groups;   // the second pass's indirect dispatch: x work groups,
     uint second_pass_y;        // y and z 1
@@ -38,3 +41,21 @@ uint second_pass_listed() {
 uint second_pass_stride() {
     return gl_NumWorkGroups.x * uint(LOCAL_SIZE);
 }
+
+#ifndef SECOND_PASS_RUNS
+#define SECOND_PASS_RUNS 0
+#endif
+#if SECOND_PASS_RUNS
+layout(std430, binding = BIND_RESCUE_RUNS) buffer SecondPassRuns {
+    uint second_pass_runs[];   // the indirect dispatch (x, y, z) of each run after the first
+};
+uniform int u_run;   // this run: 1, 2, ...
+
+void second_pass_done() {
+    uint next = uint(3 * (u_run - 1));
+    // an atomic only while the dispatch is not raised yet (many items may be done)
+    if (second_pass_runs[next] < second_pass_groups) {
+        atomicMax(second_pass_runs[next], second_pass_groups);
+    }
+}
+#endif

@@ -10,12 +10,16 @@
 //                the first listed, where Newton ended above the residual accepted: damped
 //                Newton from the first's point and from u (as warp_rescue), the least
 //                residual kept, then, where that gives no preimage inside the source, from
-//                the points of the neighbours the first pass covered. The first also lists
-//                the pixels whose preimage lies just outside the source (next to a fold u has
-//                several), where Newton runs only from the neighbours whose points show
-//                another sheet of f. Only those pixels pay for it. All the starts run in one
-//                flat loop of at most warp_evaluations evaluations of f, so that a pixel's
-//                result does not depend on the pixels the list puts next to it.
+//                the points of the neighbours the first pass covered (the 5 x 5, then
+//                pixels farther out in 8 directions). It runs several times over the list
+//                (u_run), each run starting only from the neighbours the run before
+//                found, so that a region whose first guesses all miss fills from its rim.
+//                The first also lists the pixels whose preimage lies just outside the source
+//                (next to a fold u has several), where Newton runs only from the neighbours
+//                whose points show another sheet of f. Only those pixels pay for it. All the
+//                starts of a run go in one flat loop of at most warp_evaluations evaluations
+//                of f, so that a pixel's result does not depend on the pixels the list puts
+//                next to it.
 //
 // u_map (rgba32f), per pixel: in (x, y, covered, 0) of the guess, pixels; out (s.x, s.y,
 // |f(s) - u| in pixels, covered), covered = converged and s inside the source image.
@@ -45,6 +49,7 @@ uniform float u_accept_steps;  // ... or above this many float32 steps (warp_acc
 #if !WARP_SWAP
 // The pixels the first pass leaves for the second: (x | work group z << 16, y) of u_map.
 #define SECOND_PASS_ITEM uvec2
+#define SECOND_PASS_RUNS WARP_RESCUE
 #include "common/second_pass.glsl"
 #endif
 
@@ -66,7 +71,7 @@ bool warp_inside(vec2 s, float margin) {
 const float WARP_FOLD_REACH = 8.0;
 
 // Store s (scaled), its residual (pixels) and ``covered`` (1: the first pass's; the second
-// stores WARP_RESCUED) for output pixel p at ``at`` of u_map. s goes back to pixels as the
+// stores warp_rescued) for output pixel p at ``at`` of u_map. s goes back to pixels as the
 // pixel's own point plus Newton's step s - u (u: p's point, scaled): where s stays at u (the
 // identity, handles that all keep their place) the stored point is p's point exactly, as
 // f(v) = v + (f(v) - v) keeps v, so that the backward methods copy a float image bit for bit;
@@ -77,9 +82,19 @@ void warp_store(ivec2 at, ivec2 p, vec2 s, vec2 u, float residual, float covered
 }
 
 #if WARP_RESCUE
-// What the second pass stores as covered: above a half (covered) but not 1, so that the
-// neighbours it starts from are those the first pass covered, whichever order it runs in.
-const float WARP_RESCUED = 0.75;
+// The second pass runs again over the same list (glmls.imaging.inverse.RESCUE_RUNS), run
+// u_run = 1, 2, ...: run r skips the pixels an earlier run found, and starts only from the
+// neighbours that run r - 1 found (the first pass, for run 1), the others having been starts
+// of the runs before. So a region that no guess led into fills from its rim inwards, run by
+// run, and each pixel's result depends on the runs before alone, whichever order the
+// invocations of a run take. A run follows only where the run before found a pixel.
+
+// What run r stores as covered: above a half (covered) but not 1 (the first pass's), one
+// value per run, so that the neighbours a run starts from are told apart from those that
+// the run itself finds.
+float warp_rescued(int run) {
+    return 0.75 - float(run - 1) / 256.0;
+}
 
 // The neighbours whose points are starts: the 3 x 3 ring, then the 5 x 5.
 const ivec2 WARP_NEIGHBOURS[24] = ivec2[](
@@ -90,26 +105,51 @@ const ivec2 WARP_NEIGHBOURS[24] = ivec2[](
     ivec2(1, 2), ivec2(-1, 2), ivec2(1, -2), ivec2(-1, -2),
     ivec2(2, 2), ivec2(-2, 2), ivec2(2, -2), ivec2(-2, -2));
 
+// Then the pixels farther out, in 8 directions at WARP_FAR_LEVELS distances 3 * 2^level
+// (3 to 384 pixels), nearest first: where the first guess is the mesh's cell that f
+// stretches across a whole region (where the rigid fit's rotation turns fast, about a point
+// where it is undefined, in the mesh's margin as over the image), it gives every
+// pixel of that region a start that is no preimage, the 5 x 5 neighbours' as well; the
+// covered pixels around the region lie on f's sheets that the stretched cell hides, and
+// damped Newton from their points walks along those sheets to the pixel's preimage. Only for
+// a pixel whose Newton did not converge: one whose point lies outside the source (the
+// constant border) looks for another sheet among the near ones alone.
+const int WARP_FAR_LEVELS = 8;
+const ivec2 WARP_DIRECTIONS[8] = ivec2[](
+    ivec2(1, 0), ivec2(-1, 0), ivec2(0, 1), ivec2(0, -1),
+    ivec2(1, 1), ivec2(-1, 1), ivec2(1, -1), ivec2(-1, -1));
+// How many starts the neighbours give: the 24 near ones, then the far ones.
+const int WARP_STARTS = 24 + 8 * WARP_FAR_LEVELS;
+
+// Start k's offset from the pixel (0 <= k < WARP_STARTS).
+ivec2 warp_start_offset(int k) {
+    return k < 24 ? WARP_NEIGHBOURS[k]
+                  : WARP_DIRECTIONS[(k - 24) & 7] * (3 << ((k - 24) >> 3));
+}
+
 // A neighbour's point farther from the pixel's than this many times their spacing, plus a
 // pixel, shows another sheet of f (a fold): where f does not fold, it is the inverse's
 // Lipschitz bound, and a shrink by more than it costs only Newton from the neighbours.
 const float WARP_SHEET = 4.0;
 
 // The start after ``current`` (-2: the first pass's point s, -1: u, k >= 0: neighbour k's
-// point; ``starts``: the neighbours left, a bit each), into ``current`` and ``start``
-// (scaled); false where none is left.
-bool warp_next_start(inout int current, inout uint starts, vec2 s, vec2 u, ivec2 at,
+// point; ``starts``: the neighbours left, a bit each, the 24 near ones in x, the far ones in
+// y and z), into ``current`` and ``start`` (scaled); false where none is left.
+bool warp_next_start(inout int current, inout uvec3 starts, vec2 s, vec2 u, ivec2 at,
                      out vec2 start) {
     if (current < -1) {   // -2 -> -1 (u)
         current = -1;
         start = u;
         return true;
     }
-    current = findLSB(starts);
-    starts &= starts - 1u;
-    vec4 near = imageLoad(u_map, at + WARP_NEIGHBOURS[max(current, 0)]);
+    // the lowest bit left: near ones first, then the far ones by distance
+    int word = starts.x != 0u ? 0 : starts.y != 0u ? 1 : 2;
+    uint bits = starts[word];
+    current = bits != 0u ? 32 * word + findLSB(bits) - (word > 0 ? 8 : 0) : WARP_STARTS;
+    starts[word] = bits & (bits - 1u);
+    vec4 near = imageLoad(u_map, at + warp_start_offset(min(current, WARP_STARTS - 1)));
     start = (near.xy - u_center) / u_scale;
-    return current >= 0;
+    return current < WARP_STARTS;
 }
 
 void main() {
@@ -127,37 +167,49 @@ void main() {
 #endif
     vec2 u = (vec2(p) + u_origin - u_center) / u_scale;
     vec4 found = imageLoad(u_map, at);   // the first pass's point and residual, pixels
+    if (found.w > 0.5) {
+        return;   // found by an earlier run
+    }
     vec2 s = (found.xy - u_center) / u_scale;
     float residual = found.z / u_scale;
     float tolerance = u_tolerance / u_scale;
     // Converged (then outside the source): Newton found a preimage, and only a neighbour
-    // whose point shows another sheet of f is a start; else the first's point and u are,
-    // then every covered neighbour. The first pass's covered pixels are the only ones read:
-    // this pass writes none of them.
+    // whose point shows another sheet of f is a start; else the first's point and u are (in
+    // the first run), then every neighbour the run before found (the first pass, for the
+    // first run): the only pixels read, and this run writes none of them.
     bool converged = residual <= warp_accept(u_accept, u_accept_steps, u, s);
-    uint starts = 0u;
-    for (int k = 0; k < 24; ++k) {
-        ivec2 q = p + WARP_NEIGHBOURS[k];
+    float fresh = u_run == 1 ? 1.0 : warp_rescued(u_run - 1);
+    uvec3 starts = uvec3(0u);
+    for (int k = 0; k < WARP_STARTS; ++k) {
+        ivec2 offset = warp_start_offset(k);
+        ivec2 q = p + offset;
         bool inside = all(greaterThanEqual(q, ivec2(0))) && all(lessThan(q, u_target_size));
-        vec4 near = imageLoad(u_map, inside ? at + WARP_NEIGHBOURS[k] : at);
-        float apart = length(vec2(WARP_NEIGHBOURS[k]));
-        // where f does not fold, neighbours' preimages lie within a few of their spacing
-        bool sheet = !converged || distance(near.xy, found.xy) > WARP_SHEET * apart + 1.0;
-        starts |= inside && near.w == 1.0 && sheet ? 1u << uint(k) : 0u;
+        vec4 near = imageLoad(u_map, inside ? at + offset : at);
+        float apart = length(vec2(offset));
+        // where f does not fold, neighbours' preimages lie within a few of their spacing; a
+        // converged pixel looks for another sheet next to it, among the near ones alone
+        bool other = distance(near.xy, found.xy) > WARP_SHEET * apart + 1.0;
+        bool sheet = !converged || (k < 24 && other);
+        int bit = k < 24 ? k : k + 8;   // near k: bit k of x; far k: bit k - 24 of y and z
+        uint mask = inside && near.w == fresh && sheet ? 1u << uint(bit & 31) : 0u;
+        starts[bit >> 5] |= mask;
     }
     int current = -2;   // the start running: s first, or the first neighbour's point
     vec2 start = s;
     bool running = true;
-    if (converged) {
+    if (converged || u_run > 1) {
         current = -1;
         running = warp_next_start(current, starts, s, u, at, start);
+        if (!running) {
+            return;   // no start: the pixel stays as the run before left it
+        }
     }
     bool done = false;
     float h = warp_damped_h();
     WarpDamped d = warp_damped_begin(start);
     // One flat loop, one evaluation of f an iteration, at most warp_evaluations: on a CPU
     // renderer the loop runs as long as its slowest lane, and each lane's count bounds it.
-    int budget = warp_evaluations((2 + 24) * WARP_DAMPED_EVALUATIONS);
+    int budget = warp_evaluations((2 + WARP_STARTS) * WARP_DAMPED_EVALUATIONS);
     for (int e = 0; running && e < budget; ++e) {
         vec2 f = mls_eval(warp_damped_point(d, h)).f;
         // past a CPU renderer's cap f leaves handles out: the iterates before stand
@@ -184,7 +236,10 @@ void main() {
             d = warp_damped_begin(start);
         }
     }
-    warp_store(at, p, s, u, residual * u_scale, done ? WARP_RESCUED : 0.0);
+    if (done) {
+        second_pass_done();
+    }
+    warp_store(at, p, s, u, residual * u_scale, done ? warp_rescued(u_run) : 0.0);
 }
 #else
 void main() {
