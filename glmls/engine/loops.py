@@ -72,6 +72,7 @@ NEWTON_PASSES = frozenset(
         "warp/inverse_points.comp.glsl",
         "mls3/inverse.comp.glsl",
         "volume/newton.comp.glsl",
+        "volume/folds.comp.glsl",
     }
 )
 #: The most handles those passes take where the driver caps an invocation's loop iterations

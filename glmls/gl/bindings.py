@@ -71,6 +71,9 @@ VOLUME_COORDS = Binding("VOLUME_COORDS", "storage", 16, "volumes: each voxel's s
 VOLUME_SLOPES = Binding("VOLUME_SLOPES", "storage", 17, "volumes: d source / d output per voxel")
 FILL = Binding("FILL", "storage", 19, "a buffer being filled with one word (fill_buffer)")
 VOLUME_SURVEY = Binding("VOLUME_SURVEY", "storage", 20, "volumes: the box of f over each z layer")
+VOLUME_NEIGHBOURS = Binding(
+    "VOLUME_NEIGHBOURS", "storage", 31, "volumes: the source points found about a slab"
+)
 MESH_NORMALS = Binding("MESH_NORMALS", "storage", 22, "3D meshes: vertex normals or their sums")
 MESH_FOLDS = Binding("MESH_FOLDS", "storage", 23, "3D meshes: each face's fold flag, a byte")
 MESH_FLAT = Binding("MESH_FLAT", "storage", 24, "3D meshes: where J took the plain affine solve")
@@ -150,6 +153,7 @@ ALL = (
     VOLUME_SLOPES,
     FILL,
     VOLUME_SURVEY,
+    VOLUME_NEIGHBOURS,
     MESH_NORMALS,
     MESH_FOLDS,
     MESH_FLAT,

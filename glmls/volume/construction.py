@@ -10,8 +10,9 @@ buffer), the deformed lattice is held band by band of z layers (:class:`LatticeB
   the cell's key), then ``volume/resolve.comp.glsl`` samples the source at the point
   interpolated in that cell's tetrahedron into the slab texture, read back into the output;
 - ``backward``: the same two passes write source points instead (the first guess), Newton's
-  method on f refines them (the field's :meth:`refine`), and ``volume/sample.comp.glsl``
-  samples the source there.
+  method on f refines them (the field's :meth:`refine`) over the slab and the voxels about
+  it, the fold pass (:mod:`.folds`) takes the voxels left without one next to a fold from
+  their neighbours' points, and ``volume/sample.comp.glsl`` samples the source there.
 
 The source volume is one texture where it fits, else the box of voxels that each piece of a
 band (``quads``: a box of its cells) or each sampling pass over a box of the voxels a slab's
@@ -23,6 +24,7 @@ the one-piece result exactly.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Iterator
 
 import moderngl
@@ -44,7 +46,8 @@ from .bands import (
     jacobian_band,
     survey_pieces,
 )
-from .fields import Field
+from .fields import FOLD_REACH, Field
+from .folds import COORD_BYTES, FoldPass
 from .frame import CornerLattice, VolumeFrame, check_memory
 from .kernel_field import pending_bytes
 from .margins import border_margin3
@@ -62,8 +65,6 @@ from .texture import SourceTexture
 
 __all__ = ["VolumeWarper", "make_volume_frame"]
 
-#: Bytes of one voxel's source point (backward).
-COORD_BYTES = 16
 #: Bytes of one voxel's slope (the guess's tetrahedron's inverse Jacobian, 3 vec4).
 SLOPE_BYTES = 48
 #: Bytes of one voxel in the backward method's largest slab buffer (each buffer is within
@@ -109,10 +110,15 @@ class VolumeWarper:
     # -- planning -------------------------------------------------------------------------
 
     def slabs(
-        self, frame: VolumeFrame, voxel_bytes: int, slab_bytes: int, side: int | None = None
+        self,
+        frame: VolumeFrame,
+        voxel_bytes: int,
+        slab_bytes: int,
+        side: int | None = None,
+        reach: int = 0,
     ) -> Iterator[Slab]:
         """The slabs of ``frame`` (:func:`~.pieces.plan_slabs` on this context)."""
-        return plan_slabs(self._gl, frame, voxel_bytes, slab_bytes, side)
+        return plan_slabs(self._gl, frame, voxel_bytes, slab_bytes, side, reach)
 
     # -- the construction -----------------------------------------------------------------
 
@@ -136,7 +142,9 @@ class VolumeWarper:
         # listed or its array allocated
         check_memory(frame.shape, source.channels * np.dtype(source.dtype).itemsize)
         voxel_bytes = max(per_voxel, source.voxel_bytes)
-        planned = list(self.slabs(frame, voxel_bytes, slabs.slab_bytes, slabs.texture_side))
+        reach = FOLD_REACH if backward else 0
+        planned = list(self.slabs(frame, voxel_bytes, slabs.slab_bytes, slabs.texture_side, reach))
+        folds = FoldPass(self._gl, self._resources, planned, frame.shape) if backward else None
         out = source.empty_output(frame.shape)
         texture = SourceTexture(self._gl, source, slabs.texture_bytes, slabs.texture_side)
         try:
@@ -161,7 +169,7 @@ class VolumeWarper:
                 }
                 target.bind_to_image(bindings.VOLUME_TARGET.index, read=False, write=True)
                 if backward:
-                    coords = self._solve(field, bands, frame, slab, options, source.shape)
+                    coords = self._solve(field, bands, frame, slab, options, source.shape, folds)
                     program = self._gl.compute("volume/sample.comp.glsl", defines)
                     set_uniforms(program, uniforms | {"u_slab_size": slab.size})
                     _sample(program, texture, coords, slab, options, self._max_groups)
@@ -188,13 +196,16 @@ class VolumeWarper:
         slabs = slabs if slabs is not None else SlabOptions()
         frame = make_volume_frame(options, shape)
         check_memory(frame.shape, 16 + 12 + 4 + 1)  # points, the result's, residual, covered
-        planned = list(self.slabs(frame, BACKWARD_BYTES, slabs.slab_bytes, slabs.texture_side))
+        planned = list(
+            self.slabs(frame, BACKWARD_BYTES, slabs.slab_bytes, slabs.texture_side, FOLD_REACH)
+        )
+        folds = FoldPass(self._gl, self._resources, planned, frame.shape)
         points = np.empty((*frame.shape, 4), np.float32)
         bands = self._bands(
             field, shape, frame, options, slabs, survey=len(planned) > 1, backward=True
         )
         for slab in planned:
-            coords = self._solve(field, bands, frame, slab, options, shape)
+            coords = self._solve(field, bands, frame, slab, options, shape, folds)
             raw = coords.read(size=slab.voxels * COORD_BYTES)
             points[slab_region(slab)] = np.frombuffer(raw, np.float32).reshape(
                 slab.depth, slab.height, slab.width, 4
@@ -338,30 +349,15 @@ class VolumeWarper:
             self._gl.mgl.memory_barrier()
             run_1d(program, slab.voxels, max_groups=self._max_groups)
 
-    def _solve(self, field, bands, frame, slab: Slab, options: VolumeOptions, shape):
+    def _solve(self, field, bands, frame, slab: Slab, options: VolumeOptions, shape, folds):
         """Backward: the source point of every voxel of ``slab`` in the coordinates buffer
         (x, y, z, w) in source voxels, w >= 0 the residual where found, else -1 - residual:
-        the cells' first guess, refined by the field's Newton's method."""
-        coords = self._resources.buffer("volume_coords", slab.voxels * COORD_BYTES)
-        coords.bind_to_storage_buffer(bindings.VOLUME_COORDS.index)
-        slopes = self._resources.buffer("volume_slopes", slab.voxels * SLOPE_BYTES)
-        slopes.bind_to_storage_buffer(bindings.VOLUME_SLOPES.index)
-        defines = {"WARP_BORDER": BORDERS.index(options.border)}
-        uniforms = {"u_volume_size": shape[::-1]}
-        self._cells(bands, frame, slab, defines, uniforms)
-        self._gl.mgl.memory_barrier()
-        ox, oy, oz = frame.origin_voxels
-        field.refine(
-            coords,
-            slab.size,
-            (ox, oy, oz),
-            shape,
-            constant=options.border == "constant",
-            first=slab.corner,
-            pending=self._resources.buffer("volume_pending", pending_bytes(slab.voxels)),
-        )
-        self._gl.mgl.memory_barrier()
-        return coords
+        the cells' first guess, refined by the field's Newton's method (:func:`_newton`),
+        over the slab's window, then the fold pass (``folds``, a :class:`~.folds.FoldPass`)."""
+        newton = functools.partial(_newton, self, field, bands, frame, options, shape)
+        constant = options.border == "constant"
+        origin = frame.origin_voxels
+        return folds.solve(field, slab, newton, origin=origin, shape=shape, constant=constant)
 
     def _target(self, slab: Slab, source: SourceVolume) -> moderngl.Texture3D:
         """The slab texture of ``slab``'s size: the last few sizes are kept, as boxes of
@@ -399,6 +395,30 @@ class VolumeWarper:
 
 #: Slab textures kept between slabs (boxes of columns and rows take up to four sizes).
 _TARGETS_KEPT = 4
+
+
+def _newton(
+    warper: VolumeWarper, field, bands, frame, options, shape, region: Slab, coords
+) -> None:
+    """The backward method's source points of the voxels of ``region`` (a box of the
+    canvas) into ``coords``: the cells' first guess (``warper``'s passes over ``bands``),
+    refined by ``field``'s Newton's method."""
+    coords.bind_to_storage_buffer(bindings.VOLUME_COORDS.index)
+    resources = warper._resources
+    slopes = resources.buffer("volume_slopes", region.voxels * SLOPE_BYTES)
+    slopes.bind_to_storage_buffer(bindings.VOLUME_SLOPES.index)
+    defines = {"WARP_BORDER": BORDERS.index(options.border)}
+    warper._cells(bands, frame, region, defines, {"u_volume_size": shape[::-1]})
+    warper.ctx.mgl.memory_barrier()
+    field.refine(
+        coords,
+        region.size,
+        frame.origin_voxels,
+        shape,
+        constant=options.border == "constant",
+        first=region.corner,
+        pending=resources.buffer("volume_pending", pending_bytes(region.voxels)),
+    )
 
 
 def _lattice(field, shape, frame, options: VolumeOptions, *, backward: bool) -> CornerLattice:

@@ -21,10 +21,14 @@ from ..core.config import MLSConfig
 from .frame import CornerLattice
 
 __all__ = [
+    "FOLD_NEAR",
+    "FOLD_REACH",
+    "FOLD_SHEET",
     "NEWTON_ACCEPT",
     "NEWTON_TOLERANCE",
     "Field",
     "ReferenceField",
+    "fold_neighbours",
     "newton_inverse",
     "slab_corner",
 ]
@@ -35,6 +39,28 @@ NEWTON_ACCEPT = 0.05
 #: the volume's box [-1/2, n - 1/2] is still in it (``constant`` border), so that one on a
 #: face is in whatever side rounding leaves it.
 NEWTON_TOLERANCE = 1e-3
+#: The backward method's fold pass (:mod:`~glmls.volume.folds`) starts Newton from the points
+#: of a voxel's neighbours within this many voxels along each axis ...
+FOLD_REACH = 2
+#: ... where its own Newton converged outside the volume, only from those whose point lies
+#: farther from its own than this many times their spacing, plus a voxel: on another sheet
+#: of f (where f does not fold, the inverse's Lipschitz bound keeps them nearer).
+FOLD_SHEET = 4.0
+#: ... and of those, only the first this many (the 3 x 3 x 3).
+FOLD_NEAR = 26
+
+
+def fold_neighbours() -> np.ndarray:
+    """(124, 3) int64: the offsets (x, y, z) of a voxel's neighbours within
+    :data:`FOLD_REACH` along each axis, in the order the fold pass takes them
+    (``volume/neighbours.glsl``): nearest first, then by |z|, |y|, |x|, each positive
+    before negative."""
+    span = range(-FOLD_REACH, FOLD_REACH + 1)
+    offsets = [(x, y, z) for z in span for y in span for x in span if (x, y, z) != (0, 0, 0)]
+    offsets.sort(
+        key=lambda o: (o[0] ** 2 + o[1] ** 2 + o[2] ** 2, *np.abs(o[::-1]), -o[2], -o[1], -o[0])
+    )
+    return np.array(offsets, dtype=np.int64)
 
 
 class Field(Protocol):
@@ -76,6 +102,28 @@ class Field(Protocol):
         ``constant``), else -1 - residual. ``pending``: scratch room for the voxels left to
         a second pass (:func:`~glmls.volume.kernel_field.pending_bytes`), where the field
         uses one."""
+        ...
+
+    def rescue(
+        self,
+        neighbours: moderngl.Buffer,
+        coords: moderngl.Buffer,
+        listed: moderngl.Buffer,
+        *,
+        size: tuple[int, int, int],
+        first: tuple[int, int, int],
+        window: tuple[tuple[int, int, int], tuple[int, int, int]],
+        origin: tuple[float, float, float],
+        shape: tuple[int, int, int],
+        constant: bool,
+    ) -> None:
+        """The fold pass's Newton (:mod:`~glmls.volume.folds`) for the voxels of a slab of
+        ``size`` (W, H, slices) from voxel ``first`` (x, y, z), showing ``origin`` + the
+        voxel, that ``listed`` names (the list of :class:`~glmls.gl.dispatch.SecondPass`,
+        slab voxel numbers): from the points of their neighbours in ``neighbours`` (the
+        window, (first voxel, (W, H, slices)), of the points Newton's passes found), nearest
+        first, until one ends at a preimage (inside a volume of ``shape`` with ``constant``),
+        written into ``coords`` (the slab's points) as :meth:`refine` writes them."""
         ...
 
 
@@ -154,6 +202,57 @@ class ReferenceField:
             found &= np.all((s >= -0.5 - NEWTON_TOLERANCE) & (s <= top), axis=1)
         w = np.where(found, residual, -1.0 - np.minimum(residual, 1e30))
         out = np.concatenate([s, w[:, None]], axis=1).astype(np.float32)
+        coords.write(np.ascontiguousarray(out))
+
+    def rescue(
+        self,
+        neighbours: moderngl.Buffer,
+        coords: moderngl.Buffer,
+        listed: moderngl.Buffer,
+        *,
+        size: tuple[int, int, int],
+        first: tuple[int, int, int],
+        window: tuple[tuple[int, int, int], tuple[int, int, int]],
+        origin: tuple[float, float, float],
+        shape: tuple[int, int, int],
+        constant: bool,
+    ) -> None:
+        """The fold pass's Newton in float64 (:func:`newton_inverse`), the GPU's starts in
+        its order (see :class:`Field`)."""
+        count = int(np.frombuffer(listed.read(size=16), np.uint32)[3])
+        if count == 0:
+            return
+        items = np.frombuffer(listed.read(size=4 * count, offset=16), np.uint32).astype(np.int64)
+        corner, (ww, wh, wd) = np.asarray(window[0]), window[1]
+        points = np.frombuffer(neighbours.read(size=ww * wh * wd * 16), np.float32)
+        points = points.reshape(wd, wh, ww, 4).astype(np.float64)
+        width, height, depth = size
+        out = np.frombuffer(coords.read(size=width * height * depth * 16), np.float32)
+        out = out.reshape(-1, 4).copy()
+        v = np.stack([items % width, items // width % height, items // (width * height)], 1)
+        v = v + np.asarray(first)
+        u = v + np.asarray(origin, dtype=np.float64)
+        own = points[tuple((v - corner)[:, ::-1].T)]
+        converged = -1.0 - own[:, 3] <= NEWTON_ACCEPT
+        done = np.zeros(count, bool)
+        top = np.array(shape[::-1], dtype=np.float64) - 0.5 + NEWTON_TOLERANCE
+        for k, offset in enumerate(fold_neighbours()):
+            if k == FOLD_NEAR:  # the 3 x 3 x 3 only where the voxel's Newton converged
+                done |= converged
+            q = v + offset - corner
+            inside = np.all((q >= 0) & (q < [ww, wh, wd]), axis=1)
+            near = points[tuple(np.clip(q, 0, [ww - 1, wh - 1, wd - 1])[:, ::-1].T)]
+            apart = np.linalg.norm(near[:, :3] - own[:, :3], axis=1)
+            sheet = ~converged | (apart > FOLD_SHEET * np.linalg.norm(offset) + 1.0)
+            index = np.flatnonzero(~done & inside & (near[:, 3] >= 0) & sheet)
+            if len(index) == 0:
+                continue
+            s, residual = newton_inverse(self, u[index], near[index, :3])
+            found = residual <= NEWTON_ACCEPT
+            if constant:
+                found &= np.all((s >= -0.5 - NEWTON_TOLERANCE) & (s <= top), axis=1)
+            out[items[index[found]]] = np.column_stack([s[found], residual[found]])
+            done[index[found]] = True
         coords.write(np.ascontiguousarray(out))
 
 

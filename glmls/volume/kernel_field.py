@@ -1,7 +1,8 @@
 """f of a 3D MLS on the GPU for the volume construction: the lattice band pass
 (``volume/lattice.comp.glsl``) and Newton's method for the backward method
-(``volume/newton.comp.glsl``), both evaluating the kernel's f (``mls3/core.glsl``) through
-``volume/field.glsl``, in source voxels of the volume's spacing."""
+(``volume/newton.comp.glsl``, and its fold pass's ``volume/folds.comp.glsl``), all
+evaluating the kernel's f (``mls3/core.glsl``) through ``volume/field.glsl``, in source
+voxels of the volume's spacing."""
 
 from __future__ import annotations
 
@@ -116,15 +117,7 @@ class KernelField:
             raise ValueError(
                 f"the pending list holds {pending.size} bytes, not {pending_bytes(count)}"
             )
-        uniforms = self._uniforms() | {
-            "u_slab_size": size,
-            "u_frame_origin": origin,
-            "u_slab_first": slab_corner(first),
-            "u_volume_size": shape[::-1],
-            "u_tolerance": NEWTON_TOLERANCE,
-            "u_accept": NEWTON_ACCEPT,
-            "u_max_step": NEWTON_MAX_STEP * max(shape),
-        }
+        uniforms = self._newton_uniforms(size, origin, first, shape)
         try:
             with kernel.gl.use():
                 second = SecondPass(kernel.gl, pending, count)
@@ -141,6 +134,47 @@ class KernelField:
         finally:
             if own:
                 pending.release()
+
+    def rescue(
+        self,
+        neighbours: moderngl.Buffer,
+        coords: moderngl.Buffer,
+        listed: moderngl.Buffer,
+        *,
+        size: tuple[int, int, int],
+        first: tuple[int, int, int],
+        window: tuple[tuple[int, int, int], tuple[int, int, int]],
+        origin: tuple[float, float, float],
+        shape: tuple[int, int, int],
+        constant: bool,
+    ) -> None:
+        """The fold pass's Newton on the GPU (``volume/folds.comp.glsl``), one invocation per
+        voxel of ``listed`` (see :meth:`glmls.volume.fields.Field.rescue`)."""
+        kernel = self.kernel
+        defines = {"WARP_NEWTON_STEPS": NEWTON_STEPS, "WARP_BORDER": 0 if constant else 1}
+        program = kernel.program("volume/folds.comp.glsl", defines)
+        uniforms = self._newton_uniforms(size, origin, first, shape)
+        uniforms |= {"u_window_first": window[0], "u_window_size": window[1]}
+        with kernel.gl.use():
+            kernel.bind(program, self.shape)
+            set_uniforms(program, uniforms)
+            neighbours.bind_to_storage_buffer(bindings.VOLUME_NEIGHBOURS.index)
+            coords.bind_to_storage_buffer(bindings.VOLUME_COORDS.index)
+            SecondPass(kernel.gl, listed, size[0] * size[1] * size[2]).finish(program)
+            kernel.gl.mgl.memory_barrier()
+
+    def _newton_uniforms(self, size, origin, first, shape) -> dict[str, object]:
+        """The uniforms of ``volume/newton.glsl`` for a slab of ``size`` from voxel ``first``
+        showing ``origin`` + the voxel, of a volume of ``shape``."""
+        return self._uniforms() | {
+            "u_slab_size": size,
+            "u_frame_origin": origin,
+            "u_slab_first": slab_corner(first),
+            "u_volume_size": shape[::-1],
+            "u_tolerance": NEWTON_TOLERANCE,
+            "u_accept": NEWTON_ACCEPT,
+            "u_max_step": NEWTON_MAX_STEP * max(shape),
+        }
 
 
 def pending_bytes(voxels: int) -> int:

@@ -253,7 +253,9 @@ class SlabOptions:
     slab_bytes : int, default 2**26
         The output slab's largest buffer (4 bytes a voxel for the keys; the backward
         method's largest is its slopes, 48 bytes a voxel, beside 16 for its source points
-        and 16 for the list of the voxels its Newton's second pass finishes).
+        and 16 for the list of the voxels its Newton's second pass finishes, over the slab
+        and the voxels within 2 of it whose points its fold pass reads: 2 slices more for a
+        slab of whole slices, 2 voxels more on every side of a box of columns and rows).
     band_bytes : int, default 2**28
         The deformed lattice's buffer (12 bytes a lattice point; the backward method at grid
         2 and above adds f's inverse Jacobians, 48 bytes a point, and holds at least four

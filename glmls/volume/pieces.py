@@ -33,25 +33,49 @@ __all__ = [
 
 
 def plan_slabs(
-    gl: GLContext, frame: VolumeFrame, voxel_bytes: int, slab_bytes: int, side: int | None = None
+    gl: GLContext,
+    frame: VolumeFrame,
+    voxel_bytes: int,
+    slab_bytes: int,
+    side: int | None = None,
+    reach: int = 0,
 ) -> Iterator[Slab]:
     """The slabs of ``frame``: as many slices as keep ``voxel_bytes`` a voxel within
     ``slab_bytes`` and the GL limits (storage buffer, 3D texture side, or ``side`` where
     smaller); of whole slices where one fits both limits, else of boxes of columns and
-    rows of them, as even as they can be, that do."""
+    rows of them, as even as they can be, that do. ``reach``: the voxels about a slab whose
+    points its buffers hold too, within the frame (the backward method's fold pass,
+    :mod:`.folds`): a slab of whole slices computes ``reach`` slices past it (the slab
+    before it computed those before it), a box of columns and rows ``reach`` voxels past
+    each of its sides."""
     depth_all, height, width = frame.shape
     limit = int(gl.mgl.info["GL_MAX_3D_TEXTURE_SIZE"])
     side = limit if side is None else min(side, limit)
     max_buffer = gl.limits["max_ssbo_size"]
     tile_width = even_piece(width, side)
-    if tile_width * voxel_bytes > max_buffer:
+    wide = _grown(tile_width, width, reach)
+    if wide * voxel_bytes > max_buffer:
         raise ValueError(
-            f"a row of {tile_width} output voxels needs {tile_width * voxel_bytes} bytes, "
+            f"a row of {wide} output voxels needs {wide * voxel_bytes} bytes, "
             "more than a GL storage buffer holds on this device"
         )
-    tile_height = even_piece(height, min(side, max_buffer // (tile_width * voxel_bytes)))
-    per_slice = tile_width * tile_height * voxel_bytes
-    depth = max(1, min(depth_all, side, min(slab_bytes, max_buffer) // per_slice))
+    tile_height = _tile_height(frame, tile_width, side, voxel_bytes, max_buffer, reach)
+    while tile_height < 1:  # a box of one row with its reach does not fit: narrower boxes
+        if tile_width == 1:
+            raise ValueError(
+                f"a box of one output voxel and {reach} more on each side needs "
+                f"{voxel_bytes * (1 + 2 * reach) ** 3} bytes, more than a GL storage buffer "
+                "holds on this device"
+            )
+        tile_width = even_piece(width, tile_width // 2)
+        tile_height = _tile_height(frame, tile_width, side, voxel_bytes, max_buffer, reach)
+    whole = tile_width == width and tile_height == height
+    per_slice = wide * _grown(tile_height, height, reach) * voxel_bytes
+    fit = min(slab_bytes, max_buffer) // per_slice
+    if depth_all <= min(side, fit):
+        depth = depth_all
+    else:  # slices past the slab too: those of the next (whole slices), both sides (boxes)
+        depth = max(1, min(side, fit - (reach if whole else 2 * reach)))
     for first in range(0, depth_all, depth):
         for row in range(0, height, tile_height):
             for column in range(0, width, tile_width):
@@ -63,6 +87,27 @@ def plan_slabs(
                     column,
                     row,
                 )
+
+
+def _tile_height(
+    frame: VolumeFrame, tile_width: int, side: int, voxel_bytes: int, max_buffer: int, reach: int
+) -> int:
+    """The rows of the slabs' boxes ``tile_width`` columns wide: whole slices where a slab of
+    one slice and ``reach`` more (the next slab's) fits a storage buffer of ``max_buffer``
+    bytes, else as many rows as keep a box of one slice with ``reach`` voxels more on every
+    side within it; 0 where not one row does."""
+    _, height, width = frame.shape
+    wide = _grown(tile_width, width, reach)
+    slab = (1 + reach) * height * wide * voxel_bytes
+    if tile_width == width and height <= side and slab <= max_buffer:
+        return height
+    rows = max_buffer // (wide * voxel_bytes * (1 + 2 * reach)) - 2 * reach
+    return even_piece(height, min(side, rows)) if rows >= 1 else 0
+
+
+def _grown(side: int, whole: int, reach: int) -> int:
+    """A piece of ``side`` of ``whole`` voxels with ``reach`` more each side, within it."""
+    return side if side >= whole else min(whole, side + 2 * reach)
 
 
 def even_piece(n: int, most: int) -> int:

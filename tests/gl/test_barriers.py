@@ -241,3 +241,23 @@ def test_volumes_in_slabs_and_bands(own, method):
         m.warp(volume, method=method, interpolation="linear", border="edge", slabs=slabs)
         m.warp(volume, method=method, slabs=slabs)
     _checked(tracer)
+
+
+@pytest.mark.parametrize(
+    "slabs",
+    [SlabOptions(slab_bytes=3000, band_bytes=40000), SlabOptions(texture_side=7)],
+    ids=["slices", "boxes"],
+)
+def test_volume_folds_in_slabs(own, slabs):
+    # a map that folds the volume: the backward method's fold pass copies the points kept
+    # from one slab's window to the next and runs Newton from neighbours' points
+    rng = np.random.default_rng(1008)
+    shape = (16, 18, 20)
+    count = int(rng.integers(6, 12))
+    src = rng.uniform(0, 1, (count, 3)) * (np.array(shape[::-1]) - 1)
+    dst = src + rng.normal(0, 4.0 / np.sqrt(3), src.shape) * rng.uniform(0.8, 1.6)
+    volume = (rng.random(shape) * 255).astype(np.uint8)
+    with tracing() as tracer, glmls.MLS(src, dst, shape=shape, ctx=own) as m:
+        m.warp(volume, method="backward", slabs=slabs)
+        m.coordinate_map(shape, border="edge")
+    _checked(tracer)

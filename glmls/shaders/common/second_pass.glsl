@@ -4,6 +4,7 @@
 //
 //   int second_pass_slot()     the first pass: room for one more item, its index, or -1
 //                              past u_rescue_capacity (counted, not listed)
+//   uint second_pass_slots(n)  the first pass: room for n more, the first's index
 //   uint second_pass_listed()  the second pass: how many items the list holds
 //   uint second_pass_stride()  the second pass: from one of an invocation's items to its next,
 //                              where the list holds more than the dispatch's invocations
@@ -32,6 +33,21 @@ int second_pass_slot() {
         atomicMin(second_pass_groups, u_max_groups);
     }
     return int(k);
+}
+
+// The first pass: room for n more items (n >= 1), the first's index: those at or past
+// u_rescue_capacity are counted, not listed (the caller leaves them out).
+uint second_pass_slots(uint n) {
+    uint k = atomicAdd(second_pass_count, n);
+    uint capacity = u_rescue_capacity;
+    uint groups = (min(k + n, capacity) + uint(LOCAL_SIZE) - 1u) / uint(LOCAL_SIZE) -
+                  (min(k, capacity) + uint(LOCAL_SIZE) - 1u) / uint(LOCAL_SIZE);
+    if (groups > 0u) {
+        // as second_pass_slot: each add followed by its own min
+        atomicAdd(second_pass_groups, groups);
+        atomicMin(second_pass_groups, u_max_groups);
+    }
+    return k;
 }
 
 uint second_pass_listed() {
