@@ -10,11 +10,12 @@ own Newton converged outside the volume, only the 3 x 3 x 3's on another sheet o
 the 2D backward method's second pass does (``warp/inverse.comp.glsl``). Two stages:
 ``volume/fold_list.comp.glsl`` copies each slab voxel's point into the slab's coordinates
 buffer and lists the voxels left without one (where u's Newton converged outside the
-volume, only those with a face neighbour whose point lies more than 2 voxels from u's); the
-field's :meth:`~glmls.volume.fields.Field.rescue` runs over those alone
-(``volume/folds.comp.glsl`` on the GPU). Where Newton converged for every voxel and f
-spreads no neighbouring voxels' points more than 2 voxels apart (f neither folds nor
-shrinks that much), the list is empty.
+volume, only those with a face neighbour whose point lies more than 2 voxels off the line
+through the points on either side of it along that axis); the field's
+:meth:`~glmls.volume.fields.Field.rescue` runs over those alone (``volume/folds.comp.glsl``
+on the GPU). Where Newton converged for every voxel and f does not fold, the list is empty,
+however much f shrinks the volume (f's inverse is smooth: its second differences are
+small).
 
 Each slab's neighbours past its sides are those of the next slabs: Newton's passes run over
 a window, the slab's box grown by the reach on every side within the canvas

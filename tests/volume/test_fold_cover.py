@@ -13,7 +13,7 @@ import glmls
 from glmls.core.config import MLSConfig
 from glmls.volume import SlabOptions, volume_coordinate_map
 from glmls.volume.construction import VolumeWarper
-from glmls.volume.fields import ReferenceField, fold_neighbours, newton_inverse
+from glmls.volume.fields import NEWTON_ACCEPT, ReferenceField, fold_neighbours, newton_inverse
 from glmls.volume.kernel_field import KernelField
 from glmls.volume.options import VolumeOptions
 
@@ -119,28 +119,63 @@ def test_the_fold_pass_takes_these_voxels(gl, monkeypatch):
     assert np.count_nonzero(covered & ~without) >= 2
 
 
-def test_without_a_fold_the_pass_lists_no_voxel(gl, monkeypatch):
-    """Where f does not fold, the fold pass's second stage (Newton) runs over no voxel: a
-    smooth map that moves the volume's faces in and out, on a canvas past every side, whose
-    background voxels next to the volume's image converged to points outside it, each
-    beside its neighbours' points."""
+def _smooth_handles():
+    """A smooth map that moves the volume's faces in and out by about a voxel."""
     rng = np.random.default_rng(3)
     src = rng.uniform(0, 1, (10, 3)) * (np.array(SHAPE[::-1]) - 1)
-    dst = src + rng.normal(0, 0.6, src.shape)
-    listed = []
+    return src, src + rng.normal(0, 0.6, src.shape)
+
+
+def _shrinking_handles():
+    """A similarity that shrinks the volume eightfold about its centre: f's inverse spreads
+    neighbouring voxels' points 8 voxels apart everywhere."""
+    src = np.random.default_rng(4).uniform(0, 1, (10, 3)) * (np.array(SHAPE[::-1]) - 1)
+    centre = (np.array(SHAPE[::-1]) - 1) / 2
+    return src, centre + (src - centre) / 8
+
+
+def _listed_converged(listed, neighbours, *, size, first, window):
+    """How many of the voxels that the fold pass's first stage listed have a point that
+    their own Newton converged to (a preimage outside the volume)."""
+    count = int(np.frombuffer(listed.read(size=16), np.uint32)[3])
+    if count == 0:
+        return 0
+    items = np.frombuffer(listed.read(size=4 * count, offset=16), np.uint32).astype(np.int64)
+    width, height, _ = size
+    v = np.stack([items % width, items // width % height, items // (width * height)], 1)
+    (corner, (ww, wh, wd)) = window
+    w = v + np.asarray(first) - np.asarray(corner)
+    points = np.frombuffer(neighbours.read(size=ww * wh * wd * 16), np.float32).reshape(-1, 4)
+    own = points[(w[:, 2] * wh + w[:, 1]) * ww + w[:, 0], 3]
+    return int(np.count_nonzero(-1.0 - own <= NEWTON_ACCEPT))
+
+
+@pytest.mark.parametrize("handles", [_smooth_handles, _shrinking_handles])
+def test_without_a_fold_the_pass_lists_no_converged_voxel(gl, monkeypatch, handles):
+    """Where f does not fold, the fold pass's first stage lists no voxel whose own Newton
+    converged: on a canvas past every side, the background voxels about the volume's image
+    converged to points outside it, each on the line of its neighbours' points, however far
+    apart f's inverse puts them (eightfold). The voxels whose Newton did not converge (past
+    its reach, with the constant border) are listed; with the edge border none is left."""
+    src, dst = handles()
+    listed = {"constant": [], "edge": []}
     original = KernelField.rescue
+    border = None
 
     def counted(self, neighbours, coords, items, **keywords):
-        listed.append(int(np.frombuffer(items.read(size=16), np.uint32)[3]))
+        cut = {name: keywords[name] for name in ("size", "first", "window")}
+        total = int(np.frombuffer(items.read(size=16), np.uint32)[3])
+        listed[border].append((total, _listed_converged(items, neighbours, **cut)))
         original(self, neighbours, coords, items, **keywords)
 
     monkeypatch.setattr(KernelField, "rescue", counted)
     canvas = {"output_shape": (20, 22, 24), "origin": (-2.0, -2.0, -2.0)}
-    with glmls.MLS(src, dst, transform="rigid", shape=SHAPE) as m:
+    with glmls.MLS(src, dst, transform="similarity", shape=SHAPE) as m:
         for border in ("constant", "edge"):
             _, _, covered = volume_coordinate_map(m, SHAPE, border=border, **canvas)
-    assert 0 < covered.mean() <= 1
-    assert len(listed) == 2 and sum(listed) == 0
+            assert covered.any()
+    assert [converged for _, converged in listed["constant"]] == [0]
+    assert listed["edge"] == [(0, 0)]
 
 
 @pytest.mark.parametrize("border", ["constant", "edge"])
