@@ -61,6 +61,7 @@ from .pieces import (
     used_pieces,
 )
 from .source import SourceVolume, prepare_volume, volume_background
+from .target import SlabTargets
 from .texture import SourceTexture
 
 __all__ = ["VolumeWarper", "make_volume_frame"]
@@ -81,6 +82,7 @@ class VolumeWarper:
     def __init__(self, ctx: moderngl.Context | GLContext | None = None) -> None:
         self._gl = get_context(ctx)
         self._resources = Resources(self._gl, "this volume warper")
+        self._targets = SlabTargets(self._gl, self._resources)
 
     @classmethod
     def of(cls, ctx: moderngl.Context | GLContext | None = None) -> VolumeWarper:
@@ -99,12 +101,7 @@ class VolumeWarper:
             with self._gl.use():
                 cached[1].release()
         self._jacobian_texture = None
-        targets = getattr(self, "_target_textures", None) or {}
-        if targets and self._gl.usable:
-            with self._gl.use():
-                for texture in targets.values():
-                    texture.release()
-        self._target_textures = None
+        self._targets.release()
         self._resources.release()
 
     # -- planning -------------------------------------------------------------------------
@@ -153,7 +150,7 @@ class VolumeWarper:
                 field, source.shape, frame, options, slabs, survey=survey, backward=backward
             )
             for slab in planned:
-                target = self._target(slab, source)
+                target = self._targets.texture(slab, source)
                 defines = {
                     "WARP_LINEAR": options.interpolation == "linear",
                     "WARP_BORDER": BORDERS.index(options.border),
@@ -176,7 +173,7 @@ class VolumeWarper:
                 else:
                     self._cells(bands, frame, slab, defines, uniforms, source=texture)
                 self._gl.mgl.memory_barrier()
-                self._read(target, slab, source, out)
+                self._targets.read(target, slab, source, out)
         finally:
             texture.release()
         return source.view(out)
@@ -352,73 +349,32 @@ class VolumeWarper:
     def _solve(self, field, bands, frame, slab: Slab, options: VolumeOptions, shape, folds):
         """Backward: the source point of every voxel of ``slab`` in the coordinates buffer
         (x, y, z, w) in source voxels, w >= 0 the residual where found, else -1 - residual:
-        the cells' first guess, refined by the field's Newton's method (:func:`_newton`),
+        the cells' first guess, refined by the field's Newton's method (:meth:`_newton`),
         over the slab's window, then the fold pass (``folds``, a :class:`~.folds.FoldPass`)."""
-        newton = functools.partial(_newton, self, field, bands, frame, options, shape)
+        newton = functools.partial(self._newton, field, bands, frame, options, shape)
         constant = options.border == "constant"
         origin = frame.origin_voxels
         return folds.solve(field, slab, newton, origin=origin, shape=shape, constant=constant)
 
-    def _target(self, slab: Slab, source: SourceVolume) -> moderngl.Texture3D:
-        """The slab texture of ``slab``'s size: the last few sizes are kept, as boxes of
-        columns and rows take up to four (the last column's and row's narrower)."""
-        key = (slab.size, source.target_components, source.texture_dtype)
-        kept = getattr(self, "_target_textures", None)
-        if kept is None:
-            kept = self._target_textures = {}
-        if key in kept:
-            return kept[key]
-        if len(kept) >= _TARGETS_KEPT:
-            oldest = next(iter(kept))
-            kept.pop(oldest).release()
-        texture = self._gl.mgl.texture3d(slab.size, key[1], dtype=key[2])
-        kept[key] = texture
-        return texture
-
-    def _read(self, target, slab: Slab, source: SourceVolume, out: np.ndarray) -> None:
-        """The slab into ``out`` through a pixel-pack buffer: the GPU copies the texture into
-        it, the host reads it once, straight into ``out`` where the layouts agree (a plain
-        texture read went through the driver's staging at ~1.3 GB/s on an H200 machine)."""
-        nbytes = slab.voxels * source.voxel_bytes
-        pack = self._resources.buffer("volume_readback", nbytes)
-        target.read_into(pack, alignment=1)
-        region = out[slab_region(slab)]
-        whole_slices = slab.width == out.shape[2] and slab.height == out.shape[1]
-        same = source.target_components == source.channels and out.dtype == source.data.dtype
-        if same and whole_slices:
-            pack.read_into(region, size=nbytes)
-            return
-        raw = np.frombuffer(pack.read(size=nbytes), dtype=source.data.dtype)
-        values = raw.reshape(slab.depth, slab.height, slab.width, source.target_components)
-        region[...] = values[..., : source.channels]
-
-
-#: Slab textures kept between slabs (boxes of columns and rows take up to four sizes).
-_TARGETS_KEPT = 4
-
-
-def _newton(
-    warper: VolumeWarper, field, bands, frame, options, shape, region: Slab, coords
-) -> None:
-    """The backward method's source points of the voxels of ``region`` (a box of the
-    canvas) into ``coords``: the cells' first guess (``warper``'s passes over ``bands``),
-    refined by ``field``'s Newton's method."""
-    coords.bind_to_storage_buffer(bindings.VOLUME_COORDS.index)
-    resources = warper._resources
-    slopes = resources.buffer("volume_slopes", region.voxels * SLOPE_BYTES)
-    slopes.bind_to_storage_buffer(bindings.VOLUME_SLOPES.index)
-    defines = {"WARP_BORDER": BORDERS.index(options.border)}
-    warper._cells(bands, frame, region, defines, {"u_volume_size": shape[::-1]})
-    warper.ctx.mgl.memory_barrier()
-    field.refine(
-        coords,
-        region.size,
-        frame.origin_voxels,
-        shape,
-        constant=options.border == "constant",
-        first=region.corner,
-        pending=resources.buffer("volume_pending", pending_bytes(region.voxels)),
-    )
+    def _newton(self, field, bands, frame, options, shape, region: Slab, coords) -> None:
+        """The backward method's source points of the voxels of ``region`` (a box of the
+        canvas) into ``coords``: the cells' first guess (the passes over ``bands``), refined
+        by ``field``'s Newton's method."""
+        coords.bind_to_storage_buffer(bindings.VOLUME_COORDS.index)
+        slopes = self._resources.buffer("volume_slopes", region.voxels * SLOPE_BYTES)
+        slopes.bind_to_storage_buffer(bindings.VOLUME_SLOPES.index)
+        defines = {"WARP_BORDER": BORDERS.index(options.border)}
+        self._cells(bands, frame, region, defines, {"u_volume_size": shape[::-1]})
+        self._gl.mgl.memory_barrier()
+        field.refine(
+            coords,
+            region.size,
+            frame.origin_voxels,
+            shape,
+            constant=options.border == "constant",
+            first=region.corner,
+            pending=self._resources.buffer("volume_pending", pending_bytes(region.voxels)),
+        )
 
 
 def _lattice(field, shape, frame, options: VolumeOptions, *, backward: bool) -> CornerLattice:

@@ -11,6 +11,7 @@
 layout(local_size_x = LOCAL_SIZE) in;
 
 #include "volume/neighbours.glsl"
+#include "volume/slab.glsl"
 
 layout(std430, binding = BIND_VOLUME_COORDS) writeonly buffer VolumeCoords {
     vec4 volume_coords[];
@@ -20,7 +21,6 @@ layout(std430, binding = BIND_VOLUME_COORDS) writeonly buffer VolumeCoords {
 
 uniform int u_offset;        // first item of this dispatch
 uniform int u_count;         // voxels of the slab
-uniform ivec3 u_slab_size;   // W, H and slices of the output slab
 uniform ivec3 u_slab_first;  // the slab's first output voxel (x, y, z)
 uniform float u_accept;
 
@@ -29,8 +29,7 @@ void main() {
     uint listed = 0u;   // bit j: voxel first + j
     for (int j = 0; j < VOLUME_LIST_ITEMS; ++j) {
         int i = min(first + j, u_count - 1);   // past the end: the last voxel, unlisted
-        ivec3 v = u_slab_first + ivec3(i % u_slab_size.x, (i / u_slab_size.x) % u_slab_size.y,
-                                       i / (u_slab_size.x * u_slab_size.y));
+        ivec3 v = u_slab_first + volume_voxel(i);
         vec4 own = volume_neighbours[volume_window_index(v)];
         volume_coords[i] = own;
         bool start = first + j < u_count && own.w < 0.0 && volume_listed(v, own, u_accept);

@@ -4,6 +4,7 @@
 // Needs WARP_NEWTON_STEPS and WARP_BORDER (0: constant).
 
 #include "volume/field.glsl"
+#include "volume/slab.glsl"
 #include "mls3/newton.glsl"
 
 // Each voxel's source point (x, y, z, w), w >= 0 the residual where found
@@ -11,7 +12,6 @@ layout(std430, binding = BIND_VOLUME_COORDS) buffer VolumeCoords {
     vec4 volume_coords[];
 };
 
-uniform ivec3 u_slab_size;   // W, H and slices of the output slab
 uniform vec3 u_frame_origin; // source voxels that the output's voxel (0, 0, 0) shows
 uniform ivec3 u_slab_first;  // the slab's first output voxel (x, y, z)
 uniform ivec3 u_volume_size; // W, H, D of the source
@@ -113,11 +113,6 @@ void volume_newton_end(inout VolumeNewton n) {
         n.s = n.start;
         n.residual = n.last;
     }
-}
-
-ivec3 volume_voxel(int i) {
-    return ivec3(i % u_slab_size.x, (i / u_slab_size.x) % u_slab_size.y,
-                 i / (u_slab_size.x * u_slab_size.y));
 }
 
 vec3 volume_target(int i) {

@@ -20,6 +20,7 @@ layout(local_size_x = LOCAL_SIZE) in;
 #endif
 
 #include "volume/lattice.glsl"
+#include "volume/slab.glsl"
 #include "volume/tetra.glsl"
 
 #if VOLUME_COORDS
@@ -59,7 +60,6 @@ layout(std430, binding = BIND_VOLUME_KEYS) readonly buffer VolumeKeys {
 
 uniform int u_offset;        // first item of this dispatch
 uniform int u_count;         // voxels of the slab
-uniform ivec3 u_slab_size;   // W, H and slices of the output slab
 uniform vec3 u_frame_origin; // source voxels that the output's voxel (0, 0, 0) shows
 uniform ivec3 u_slab_first;  // the slab's first output voxel (x, y, z)
 uniform uint u_key_first;    // the band's cells: keys u_key_first .. u_key_end - 1
@@ -87,8 +87,7 @@ void main() {
     if (i >= u_count) {
         return;
     }
-    ivec3 p = ivec3(i % u_slab_size.x, (i / u_slab_size.x) % u_slab_size.y,
-                    i / (u_slab_size.x * u_slab_size.y));
+    ivec3 p = volume_voxel(i);
     uint key = volume_keys[i];
     if (key == 0xFFFFFFFFu) {
         if (u_write_uncovered) {

@@ -7,6 +7,7 @@ layout(local_size_x = LOCAL_SIZE) in;
 
 #include "volume/sample.glsl"
 #include "volume/target.glsl"
+#include "volume/slab.glsl"
 
 layout(std430, binding = BIND_VOLUME_COORDS) readonly buffer VolumeCoords {
     vec4 volume_coords[];
@@ -14,7 +15,6 @@ layout(std430, binding = BIND_VOLUME_COORDS) readonly buffer VolumeCoords {
 
 uniform int u_offset;        // first item of this dispatch
 uniform int u_count;         // voxels of the slab
-uniform ivec3 u_slab_size;   // W, H and slices of the output slab
 uniform vec4 u_background;
 uniform ivec3 u_first_low;   // the box of first voxels this pass samples
 uniform ivec3 u_first_high;
@@ -25,8 +25,7 @@ void main() {
     if (i >= u_count) {
         return;
     }
-    ivec3 p = ivec3(i % u_slab_size.x, (i / u_slab_size.x) % u_slab_size.y,
-                    i / (u_slab_size.x * u_slab_size.y));
+    ivec3 p = volume_voxel(i);
     vec4 c = volume_coords[i];
     if (c.w < 0.0) {
         if (u_write_uncovered) {
