@@ -23,7 +23,6 @@ from .frame import CornerLattice
 __all__ = [
     "FOLD_NEAR",
     "FOLD_REACH",
-    "FOLD_SHEET",
     "NEWTON_ACCEPT",
     "NEWTON_TOLERANCE",
     "Field",
@@ -42,11 +41,8 @@ NEWTON_TOLERANCE = 1e-3
 #: The backward method's fold pass (:mod:`~glmls.volume.folds`) starts Newton from the points
 #: of a voxel's neighbours within this many voxels along each axis ...
 FOLD_REACH = 2
-#: ... where its own Newton converged outside the volume, only from those whose point lies
-#: farther from its own than this many times their spacing, plus a voxel: on another sheet
-#: of f (where f does not fold, the inverse's Lipschitz bound keeps them nearer).
-FOLD_SHEET = 4.0
-#: ... and of those, only the first this many (the 3 x 3 x 3).
+#: ... where its own Newton converged outside the volume, only the first this many (the
+#: 3 x 3 x 3).
 FOLD_NEAR = 26
 
 
@@ -242,9 +238,7 @@ class ReferenceField:
             q = v + offset - corner
             inside = np.all((q >= 0) & (q < [ww, wh, wd]), axis=1)
             near = points[tuple(np.clip(q, 0, [ww - 1, wh - 1, wd - 1])[:, ::-1].T)]
-            apart = np.linalg.norm(near[:, :3] - own[:, :3], axis=1)
-            sheet = ~converged | (apart > FOLD_SHEET * np.linalg.norm(offset) + 1.0)
-            index = np.flatnonzero(~done & inside & (near[:, 3] >= 0) & sheet)
+            index = np.flatnonzero(~done & inside & (near[:, 3] >= 0))
             if len(index) == 0:
                 continue
             s, residual = newton_inverse(self, u[index], near[index, :3])

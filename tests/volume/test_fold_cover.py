@@ -236,3 +236,24 @@ def test_neighbours_in_the_shaders_order(gl):
         .split()
     ]
     np.testing.assert_array_equal(np.reshape(numbers, (-1, 3)), fold_neighbours())
+
+
+def test_a_converged_voxel_takes_a_near_neighbours_point(gl):
+    """A voxel next to a fold whose own Newton converged to a preimage outside the volume
+    (affine, 18 handles pulled by about 5 voxels on a 20 x 30 x 28 volume): the point of a
+    neighbour less than 5 voxels from its own leads to its preimage inside, and the fold
+    pass takes it from there (it keeps the background where only points farther away are
+    tried)."""
+    rng = np.random.default_rng(5)
+    shape = tuple(int(n) for n in rng.integers(20, 33, 3))
+    count = int(rng.integers(8, 21))
+    src = rng.uniform(0, 1, (count, 3)) * (np.array(shape[::-1]) - 1)
+    dst = src + rng.normal(0, rng.uniform(2, 6), src.shape)
+    field = ReferenceField(src, dst, MLSConfig(transform="affine"), shape=shape)
+    with glmls.MLS(src, dst, transform="affine", shape=shape) as m:
+        points, _, covered = volume_coordinate_map(m, shape)
+    x, y, z = 13, 17, 2
+    assert covered[z, y, x]
+    s = points[z, y, x].astype(np.float64)
+    assert np.linalg.norm(field.evaluate(s)[0] - (x, y, z)) < 0.05
+    assert np.all(s >= -0.5) and np.all(s <= np.array(shape[::-1]) - 0.5)

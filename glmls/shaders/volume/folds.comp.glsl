@@ -4,9 +4,9 @@
 // the cells' guess and from u may both end on another sheet of f than u's preimage, or
 // converge to a preimage outside the volume where another lies inside. Newton runs from the
 // points of u's neighbours that those passes found (volume/neighbours.glsl: nearest first;
-// where u's own Newton converged, only the 3 x 3 x 3's on another sheet), f's own Jacobian
-// at each step, until one ends at a preimage (a residual within u_accept, inside the
-// volume's box with the constant border); that point is stored, else u keeps what the first
+// where u's own Newton converged, only the 3 x 3 x 3), f's own Jacobian at each step, until
+// one ends at a preimage (a residual within u_accept, inside the volume's box with the
+// constant border); that point is stored, else u keeps what the first
 // stage copied. The window holds the passes' points only, never this pass's: a voxel's
 // result does not depend on the order its neighbours run in, nor on the slab it falls in.
 // All the starts run in one flat loop of one evaluation of f an iteration, at most
@@ -31,7 +31,7 @@ bool volume_next_start(inout int k, ivec3 v, vec4 own, out vec3 start) {
     int count = volume_start_count(own, u_accept);
     while (!found && k + 1 < count) {
         ++k;
-        found = volume_neighbour_start(v, own, k, u_accept, near);
+        found = volume_neighbour_start(v, k, near);
     }
     start = near.xyz;
     return found;

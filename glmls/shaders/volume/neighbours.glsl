@@ -44,11 +44,6 @@ const ivec3 VOLUME_NEIGHBOUR[VOLUME_NEIGHBOUR_COUNT] = ivec3[](
     ivec3(-1, -2, -2), ivec3(2, 2, 2), ivec3(-2, 2, 2), ivec3(2, -2, 2), ivec3(-2, -2, 2),
     ivec3(2, 2, -2), ivec3(-2, 2, -2), ivec3(2, -2, -2), ivec3(-2, -2, -2));
 
-// A neighbour's point farther from the voxel's than this many times their spacing, plus a
-// voxel, shows another sheet of f (a fold): where f does not fold, it is the inverse's
-// Lipschitz bound (as in 2D, warp/inverse.comp.glsl).
-const float VOLUME_SHEET = 4.0;
-
 // The index in the window of canvas voxel v, -1 outside it (past the canvas).
 int volume_window_index(ivec3 v) {
     ivec3 w = v - u_window_first;
@@ -63,22 +58,19 @@ bool volume_converged(vec4 own, float accept) {
 }
 
 // How many of v's neighbours may give starts: where v's own Newton converged, the 3 x 3 x 3
-// (a fold's other sheet shows next to it; the background about a volume that f shrinks has
-// many such voxels, each then scanning a few), else the 5 x 5 x 5.
+// (volume_listed takes such a voxel next to a fold only, whose other sheet shows next to
+// it), else the 5 x 5 x 5.
 int volume_start_count(vec4 own, float accept) {
     return volume_converged(own, accept) ? VOLUME_NEAR_COUNT : VOLUME_NEIGHBOUR_COUNT;
 }
 
-// Whether the point of neighbour ``k`` of voxel v, ``own`` (v's: not found, w < 0), is a
-// start: found, and, where v's Newton converged, on another sheet of f. Its point in
-// ``near``.
-bool volume_neighbour_start(ivec3 v, vec4 own, int k, float accept, out vec4 near) {
+// Whether the point of neighbour ``k`` of voxel v is a start: found (however near v's own
+// it lies, where v's Newton converged outside the volume: next to a fold's edge the sheets
+// lie close together). Its point in ``near``.
+bool volume_neighbour_start(ivec3 v, int k, out vec4 near) {
     int at = volume_window_index(v + VOLUME_NEIGHBOUR[k]);
     near = volume_neighbours[max(at, 0)];
-    float apart = length(vec3(VOLUME_NEIGHBOUR[k]));
-    bool sheet = !volume_converged(own, accept) ||
-                 distance(near.xyz, own.xyz) > VOLUME_SHEET * apart + 1.0;
-    return at >= 0 && near.w >= 0.0 && sheet;
+    return at >= 0 && near.w >= 0.0;
 }
 
 // A voxel without a point is listed for the fold pass where its own Newton did not converge,
