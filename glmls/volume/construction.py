@@ -83,6 +83,8 @@ class VolumeWarper:
         self._gl = get_context(ctx)
         self._resources = Resources(self._gl, "this volume warper")
         self._targets = SlabTargets(self._gl, self._resources)
+        # the Jacobians' texture and its size, kept while the next call's size is the same
+        self._jacobian_texture: tuple[tuple[int, int, int], moderngl.Texture3D] | None = None
 
     @classmethod
     def of(cls, ctx: moderngl.Context | GLContext | None = None) -> VolumeWarper:
@@ -96,7 +98,7 @@ class VolumeWarper:
 
     def release(self) -> None:
         """Free the cached GL objects. Idempotent."""
-        cached = getattr(self, "_jacobian_texture", None)
+        cached = self._jacobian_texture
         if cached is not None and self._gl.usable:
             with self._gl.use():
                 cached[1].release()
@@ -263,7 +265,7 @@ class VolumeWarper:
         if plan is None:
             return None
         size, budget = plan
-        cached = getattr(self, "_jacobian_texture", None)
+        cached = self._jacobian_texture
         if cached is not None and cached[0] == size:
             return cached[1], budget
         if cached is not None:

@@ -6,8 +6,8 @@ guess lies on another sheet of f, and Newton from u itself ends there too, or co
 preimage outside the volume while another lies inside. The fold pass takes those voxels
 again, from the points that Newton's passes found for u's neighbours within
 :data:`~glmls.volume.fields.FOLD_REACH` voxels along each axis (nearest first; where u's
-own Newton converged outside the volume, only the 3 x 3 x 3), as
-the 2D backward method's second pass does (``warp/inverse.comp.glsl``). Two stages:
+own Newton converged outside the volume, only the 3 x 3 x 3), as the 2D backward method's
+second pass does (``warp/inverse.comp.glsl``). Two stages:
 ``volume/fold_list.comp.glsl`` copies each slab voxel's point into the slab's coordinates
 buffer and lists the voxels left without one (where u's Newton converged outside the
 volume, only those with a face neighbour whose point lies more than 2 voxels off the line

@@ -6,9 +6,9 @@
 // points of u's neighbours that those passes found (volume/neighbours.glsl: nearest first;
 // where u's own Newton converged, only the 3 x 3 x 3), f's own Jacobian at each step, until
 // one ends at a preimage (a residual within u_accept, inside the volume's box with the
-// constant border); that point is stored, else u keeps what the first
-// stage copied. The window holds the passes' points only, never this pass's: a voxel's
-// result does not depend on the order its neighbours run in, nor on the slab it falls in.
+// constant border); that point is stored, else u keeps what the first stage copied. The
+// window holds the passes' points only, never this pass's: a voxel's result does not depend
+// on the order its neighbours run in, nor on the slab it falls in.
 // All the starts run in one flat loop of one evaluation of f an iteration, at most
 // mls3_evaluations.
 
