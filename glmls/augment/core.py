@@ -749,6 +749,17 @@ def replay_boxes(
 _FLOAT_LABELS = 1 << 24
 
 
+def _distinct(masks: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct values of ``masks`` and each element's number among them (as
+    :func:`numpy.unique`'s ``return_inverse``), floating-point values told apart by their
+    bits: -0.0 and 0.0, and NaNs of different payloads, are labels of their own."""
+    bits = {2: np.uint16, 4: np.uint32, 8: np.uint64}.get(masks.dtype.itemsize)
+    if masks.dtype.kind != "f" or bits is None:
+        return np.unique(masks, return_inverse=True)
+    keys, numbers = np.unique(np.ascontiguousarray(masks).view(bits), return_inverse=True)
+    return keys.view(masks.dtype), numbers
+
+
 def replay_masks(augment: Augment, params: Sequence[Mapping], masks: np.ndarray) -> np.ndarray:
     """(N, H, W) masks deformed, one per draw, with nearest sampling, 0 where nothing is
     shown; of their dtype (bool masks too; floating-point masks, as albumentations and
@@ -760,7 +771,7 @@ def replay_masks(augment: Augment, params: Sequence[Mapping], masks: np.ndarray)
     wide = masks.dtype.kind in "iu" and masks.dtype.itemsize > 2 and masks.size
     large = wide and max(-int(masks.min()), int(masks.max())) > _FLOAT_LABELS  # instance ids
     if masks.dtype.kind == "f" or large:
-        values, numbers = np.unique(masks, return_inverse=True)
+        values, numbers = _distinct(masks)
         if len(values) < _FLOAT_LABELS:  # label 0: nothing shown, value k + 1: values[k]
             labels = (numbers.reshape(masks.shape) + 1).astype(np.int32)
             moved = np.asarray(replay_labels(augment, params, masks=labels).masks)

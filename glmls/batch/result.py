@@ -15,10 +15,13 @@ __all__ = ["BatchResult"]
 class BatchResult:
     """The warped images of a batch with their labels and maps.
 
-    Each field is an array with the batch's leading dimension N where every image of the
-    batch has one shape (and, for ``images``, one dtype and channel count), else a list of N
-    arrays in the order of the input; None where it was not asked for. Printed, it shows
-    each field's shape and dtype, not its values.
+    Each field is an array with the batch's leading dimension N, or a list of N arrays in
+    the order of the input; None where it was not asked for: ``images`` an array where the
+    input images have one shape, dtype and channel count; ``keypoints`` and
+    ``keypoints_valid`` where each image has as many keypoints; ``masks``, ``maps`` and
+    ``valid`` where the N arrays have one shape and dtype (every output canvas one height
+    and width, the masks one dtype), whatever the images' dtypes and channels. Printed, it
+    shows each field's shape and dtype, not its values.
 
     Parameters
     ----------
@@ -41,7 +44,10 @@ class BatchResult:
         (N, H, W, 2) float32: for each output pixel the source point (x, y) it shows (the
         convention of :meth:`glmls.MLS.coordinate_map`); for ``splat`` and ``paper-quads``
         f's inverse there, whose nearest source pixel is not always the one that their
-        forward pass drew.
+        forward pass drew. A pixel that shows nothing (not ``valid``, with the ``constant``
+        border) holds no source point of the image: (0, 0) for ``quads`` on the regular
+        mesh where no cell covers the pixel, Newton's last iterate for the backward
+        methods.
     valid : numpy.ndarray or list of numpy.ndarray or None
         (N, H, W) bool: the output pixels that some source pixel covers (with ``maps``);
         not those that show a border mode's copies past the source image.

@@ -311,9 +311,9 @@ def _assemble(
         keypoints_valid=field("keypoints_valid", batch.stacked_points) if given else None,
         masks=whole["masks"]
         if batch.stacked and "masks" in whole
-        else field("mask", batch.stacked)
+        else field("mask", True)
         if batch.masks is not None
         else None,
-        maps=field("map", batch.stacked) if maps else None,
-        valid=field("valid", batch.stacked) if maps else None,
+        maps=field("map", True) if maps else None,
+        valid=field("valid", True) if maps else None,
     )

@@ -339,17 +339,24 @@ def _swapped_preimages(
     """Where ``backward-swap`` shows source ``points``: output pixel u shows s(u), s the MLS
     map with p and q swapped, so a point p lands at s's inverse at p (not at f(p), which
     differs from it by the shortcut's error), with the Jacobian the inverse of s's there.
-    ``values``, ``jacobian``: f's, kept where s has no preimage found."""
-    with MLS.from_config(
-        mls.dst,
-        mls.src,
-        mls.config,
-        src_segments=mls.dst_segments,
-        dst_segments=mls.src_segments,
-        shape=mls.shape,
-        ctx=mls.ctx,
-        storage=mls.storage,
-    ) as swapped:
+    ``values``, ``jacobian``: f's, kept where s has no preimage found, and for every point
+    where the swapped handles make no MLS of their own (two q that float32 merges with
+    different p, or q on one line for the affine fit): the pixels show the swapped kernel's
+    map as the single warp evaluates it, unchecked, which has no inverse to solve here."""
+    try:
+        swapped = MLS.from_config(
+            mls.dst,
+            mls.src,
+            mls.config,
+            src_segments=mls.dst_segments,
+            dst_segments=mls.src_segments,
+            shape=mls.shape,
+            ctx=mls.ctx,
+            storage=mls.storage,
+        )
+    except ValueError:  # DegenerateHandlesError too
+        return values, jacobian
+    with swapped:
         found, ok = swapped.inverse(points, return_valid=True)
         ok &= (np.abs(found) <= COORDINATE_LIMIT).all(axis=1)  # else past what f takes
         if not ok.any():

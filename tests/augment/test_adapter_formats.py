@@ -285,6 +285,37 @@ def test_floating_point_masks_keep_their_values_exactly(gl, dtype):
         assert set(torch.unique(moved).tolist()) == set(torch.unique(half).tolist())
 
 
+@pytest.mark.parametrize("dtype", [np.float64, np.float32, np.float16])
+def test_float_mask_values_are_told_apart_by_their_bits(gl, dtype):
+    """-0.0 and 0.0, and NaNs of different payloads, compare equal (or not at all) as
+    numbers but are values of their own: each comes back bit for bit, where the draw leaves
+    the pixels in place and where it moves them."""
+    bits, quiet = {  # the quiet NaN with no payload
+        np.float64: (np.uint64, 0x7FF8000000000000),
+        np.float32: (np.uint32, 0x7FC00000),
+        np.float16: (np.uint16, 0x7E00),
+    }[dtype]
+    mask = np.zeros((H, W), dtype)
+    mask[:, : W // 3] = -0.0
+    mask[: H // 2, W // 3 :] = np.array(quiet + 5, bits).view(dtype)
+    mask[H // 2 :, 2 * W // 3 :] = np.array(quiet + 9, bits).view(dtype)
+    kinds = set(np.unique(mask.view(bits)).tolist())
+    assert len(kinds) == 4
+    for options in ({"displacement": 0.0}, GRID):
+        compose = A.Compose([MLSDeform("grid", preset_options=options)], seed=2)
+        moved = compose(image=object_image(), mask=mask)["mask"]
+        assert moved.dtype == mask.dtype
+        assert set(np.unique(moved.view(bits)).tolist()) <= kinds
+        if options != GRID:
+            np.testing.assert_array_equal(moved.view(bits), mask.view(bits))
+        torch.manual_seed(0)
+        image = tv_tensors.Image(image_tensor(object_image()))
+        _, out = MLSTransform("grid", **options)(image, tv_tensors.Mask(mask))
+        assert set(np.unique(out.numpy().view(bits)).tolist()) <= kinds
+        if options != GRID:
+            np.testing.assert_array_equal(out.numpy().view(bits), mask.view(bits))
+
+
 def test_albumentations_alone_as_in_compose(gl):
     """Called alone with its random generator seeded as Compose seeds it, the transform gives
     what it gives in A.Compose(seed=...) (targets in albumentations' own format)."""

@@ -699,3 +699,30 @@ def test_footprints_that_turn_over_or_are_cut_make_their_keypoint_invalid():
     _, ok = seen_whole(ring, moved, valid, (12, 12), (30, 30), hidden=False)
     assert ok.tolist() == [True, True, True]
     assert len(RING) == 9 and (RING[0] == 0).all()
+
+
+def test_labels_and_maps_stack_by_their_own_shapes(gl, rng):
+    """Masks, maps and valid come back as arrays where their N arrays share one shape and
+    dtype, whatever the images' dtypes and channels; images of other shapes give lists of
+    them, unless one output canvas gives every image one."""
+    src, dst = handles(rng, spread=2.0)
+    height, width = SHAPE
+    mixed = [np.zeros(SHAPE, np.uint8), np.zeros((*SHAPE, 3), np.float32), np.ones(SHAPE, ">u2")]
+    masks = np.ones((N, *SHAPE), np.uint8)
+    result = glmls.warp_batch(mixed[:N], src, dst, masks=masks, return_maps=True)
+    assert isinstance(result.images, list)
+    assert result.masks.shape == (N, *SHAPE) and result.masks.dtype == np.uint8
+    assert result.maps.shape == (N, *SHAPE, 2) and result.valid.shape == (N, *SHAPE)
+    sizes = [np.zeros((height - k, width, 3), np.uint8) for k in range(N)]
+    apart = glmls.warp_batch(
+        sizes, src, dst, masks=[m[: height - k] for k, m in enumerate(masks)], return_maps=True
+    )
+    assert all(isinstance(f, list) for f in (apart.images, apart.masks, apart.maps, apart.valid))
+    canvas = glmls.warp_batch(sizes, src, dst, return_maps=True, output_shape=(20, 24))
+    assert isinstance(canvas.images, list) and canvas.maps.shape == (N, 20, 24, 2)
+    for k, image in enumerate(sizes):
+        single = glmls.warp_batch(
+            [image], [src[k]], [dst[k]], return_maps=True, output_shape=(20, 24)
+        )
+        np.testing.assert_array_equal(canvas.maps[k], single.maps[0])
+        np.testing.assert_array_equal(canvas.valid[k], single.valid[0])

@@ -341,3 +341,39 @@ def test_hot_pixels_centre_on_their_keypoints_where_s_folds(gl, grid):
             errors.append(np.linalg.norm(centre - result.keypoints[i, 0]))
     assert len(errors) > 150
     assert np.percentile(errors, 99) <= 0.5, np.sort(errors)[-5:]
+
+
+@pytest.mark.parametrize(
+    ("transform", "targets"),
+    [
+        ("rigid", [[12.0, 9.0], [12.0, 9.0], [30.0, 24.0]]),  # two q, one point
+        ("affine", [[8.0, 8.0], [20.0, 14.0], [32.0, 20.0]]),  # q on one line
+    ],
+)
+def test_swapped_handles_without_an_mls_keep_f(gl, rng, transform, targets):
+    """Handles whose swap makes no MLS (the single warp evaluates its kernel unchecked) warp
+    with keypoints as without, each such keypoint at f's value; the chunk's other images
+    move theirs by s's inverse as before."""
+    batch = images(rng, np.uint8, 3)
+    src, dst = handles(rng, 3)
+    src[1] = np.array([[10.0, 8.0], [40.0, 30.0], [12.0, 30.0]])
+    dst[1] = np.array(targets)
+    points = keypoints(rng, 3)
+    points[1] = np.array([[20.0, 15.0], [33.5, 21.25]])
+    options = {"transform": transform}
+    got = swap(batch, src, dst, keypoints=points, **options)
+    plain = swap(batch, src, dst, **options)
+    for a, b in zip(got.images, plain, strict=True):
+        np.testing.assert_array_equal(a, b)
+    with glmls.MLS(src[1], dst[1], shape=SHAPE, **options) as m:
+        np.testing.assert_allclose(got.keypoints[1], m(points[1]), rtol=0, atol=1e-4)
+    others = swap(
+        batch[[0, 2]],
+        [src[0], src[2]],
+        [dst[0], dst[2]],
+        keypoints=[points[0], points[2]],
+        **options,
+    )
+    for k, i in enumerate((0, 2)):
+        np.testing.assert_allclose(got.keypoints[i], others.keypoints[k], rtol=0, atol=ATOL)
+        np.testing.assert_array_equal(got.keypoints_valid[i], others.keypoints_valid[k])
