@@ -96,6 +96,10 @@ def search_margins3(
     boundary and inside it, the margins are found even if a face does not hold along its
     normal (a map that mirrors the volume).
 
+    With ``cover``, the margins then reach past the source handles beyond the volume that
+    f takes over the canvas (:func:`_pulled_margins`), as far as the budget lets them
+    beyond the margins found: the canvas's cover first.
+
     With ``cover`` the search also ends, the canvas uncovered, as soon as no larger margins
     could help (:func:`~glmls.core.box_growth.box_gains`, the rule of the image's mesh),
     judged over rounds that grew every side's margin, per voxel of the least: the box of the
@@ -110,14 +114,39 @@ def search_margins3(
     high = low + np.array(frame.shape[::-1]) - 1
     # the frame's voxel cubes grown by a voxel, (axis, low / high)
     grown = np.stack([low - 1.5, high + 1.5], axis=1)
+    budget = max(MARGIN_POINTS3, 2 * (d * h * w + frame.voxels) // grid**3)
+    margins, covered = _covering(field, lattice, frame, cover, size, grown, budget)
+    if cover:
+        # then the space that handles beyond the volume pull over the canvas, within what
+        # the budget leaves: after the canvas's cover, which a larger lattice keeps (its
+        # cells take in the smaller one's), so that handles far past the volume that f
+        # barely moves do not take the budget of a side that the canvas needs
+        pulled = np.maximum(margins, grid * np.ceil(_pulled_margins(field, size, grown) / grid))
+        margins = _within(margins, pulled, size, grid, budget)
+    return _as_margins(margins), covered
+
+
+def _covering(
+    field: Field,
+    lattice: CornerLattice,
+    frame: VolumeFrame,
+    cover: bool,
+    size: np.ndarray,
+    grown: np.ndarray,
+    budget: int,
+) -> tuple[np.ndarray, bool]:
+    """:func:`search_margins3`'s search of the faces (``grown``: the frame's box grown by a
+    voxel, (axis, low / high); ``size``: the volume's (x, y, z); ``budget``: the most
+    lattice points): the (3, 2) margins and whether the lattice so extended covers the
+    canvas."""
+    grid = lattice.grid
+    d, h, w = lattice.shape
+    low = np.array(frame.origin_voxels)
+    high = low + np.array(frame.shape[::-1]) - 1
     centre = grown.mean(axis=1)
     # how far the frame's voxel centres reach past each side
     overhang = np.stack([np.maximum(0.0, -0.5 - low), np.maximum(0.0, high - size + 0.5)], 1)
-    budget = max(MARGIN_POINTS3, 2 * (d * h * w + frame.voxels) // grid**3)
     margins = np.zeros((3, 2))
-    if cover:  # the plane that handles beyond the volume pull over the canvas
-        least = grid * np.ceil(_pulled_margins(field, size, grown) / grid)
-        margins = _within(margins, least, size, grid, budget)
     last = None
     # the last round's least margin and the box of its deformed faces: how fast the box
     # grows with the margins tells whether the budget's lattice could ever cover the canvas.
@@ -139,23 +168,23 @@ def search_margins3(
                 clear = clear and fine_clear
         winding = _winding(faces, images, centre) if cover else None
         if clear and winding is not None and abs(winding) > 0.5:
-            return _as_margins(margins), True
+            return margins, True
         if cover:
             limit = _side_limits(size, margins, grid, budget)
             now = (float(margins.min()), *_box(images))
             if seen is not None and not box_gains(seen, now, float(limit.max()), low, high):
                 # a box that misses the canvas covers none of it: no margins then
                 met = boxes_meet((now[1], now[2]), low, high)
-                return _as_margins(margins if met else np.zeros((3, 2))), False
+                return (margins if met else np.zeros((3, 2))), False
             seen = now
         else:
             limit = overhang + 2 * max(w, h, d)
         need = np.minimum(np.maximum(further + margins, 0.0), limit)
         if np.all(need <= margins):
             if not cover or winding is None:
-                return _as_margins(margins), True
+                return margins, True
             if np.any(further > 0):  # a face short of where it must lie, at the limit
-                return _as_margins(margins), False
+                return margins, False
             # every face holds, yet the box lies outside the deformed lattice
             goal = _preimage_need(faces, images, grown, size)
             if goal is None or np.all(goal <= margins):
@@ -181,9 +210,9 @@ def search_margins3(
         if cover:
             grown_margins = _within(margins, grown_margins, size, grid, budget)
             if np.all(grown_margins <= margins):
-                return _as_margins(margins), False
+                return margins, False
         margins = grown_margins
-    return _as_margins(margins), not cover
+    return margins, not cover
 
 
 def _pulled_margins(field: Field, size: np.ndarray, grown: np.ndarray) -> np.ndarray:

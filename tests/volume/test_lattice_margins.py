@@ -6,6 +6,8 @@ it, with the whole lattice's result."""
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 from volume_reference import box_handles
@@ -268,3 +270,38 @@ def test_the_space_pulled_over_the_canvas_shows_on_every_canvas(gl, method):
         own = m.warp(index, **options)
         large = m.warp(index, output_shape=(3 * d, 3 * h, 3 * w), origin=(-w, -h, -d), **options)
     np.testing.assert_array_equal(own, large[d : 2 * d, h : 2 * h, w : 2 * w])
+
+
+@pytest.mark.parametrize("method", ["quads", "backward"])
+@pytest.mark.parametrize("reach", [400.0, 1400.0])
+def test_handles_far_past_the_volume_leave_the_canvas_its_margins(gl, method, reach):
+    """Handles hundreds of voxels past a 12 x 13 x 14 volume, all moved 20 voxels along y
+    (f a translation): the margins they ask for (twice their distance, on the sides they lie
+    past) would take the whole lattice budget, and the side the canvas needs (-y, 20
+    voxels) none of it, leaving the whole volume at the background. The canvas's cover
+    comes first: every voxel shows the volume shifted, numpy.pad's edge rule beyond it."""
+    shape = (12, 13, 14)
+    volume = np.random.default_rng(0).integers(1, 255, shape).astype(np.uint8)
+    expected = np.pad(volume, 30, mode="edge")[30:42, 10:23, 30:44]
+    src = np.array([[0.0, 0, 0], [reach, 0, 0], [0, reach, 0], [0, 0, reach], [reach] * 3])
+    with glmls.MLS(src, src + [0, 20, 0], transform="rigid", shape=shape, ctx=gl) as m:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", glmls.BorderWarning)
+            out = m.warp(volume, method=method, border="edge")
+    np.testing.assert_array_equal(out, expected)
+
+
+@pytest.mark.parametrize("method", ["quads", "backward"])
+def test_a_crop_of_a_landmark_set_is_covered(gl, method):
+    """A 32^3 crop at the corner of 20 landmarks spread over 300 voxels, all moved about 10
+    voxels along y: every voxel shows the volume (none is 0 in it), without a warning."""
+    rng = np.random.default_rng(66)
+    shape = (32, 32, 32)
+    volume = rng.integers(1, 255, shape).astype(np.uint8)
+    src = rng.uniform(0, 300, (20, 3))
+    dst = src + [0, 10, 0] + rng.normal(0, 1, src.shape)
+    with glmls.MLS(src, dst, transform="affine", shape=shape, ctx=gl) as m:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", glmls.BorderWarning)
+            out = m.warp(volume, method=method, border="edge")
+    assert out.min() > 0
