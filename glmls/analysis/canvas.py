@@ -7,6 +7,7 @@ the picture top-down as (H, W, 3) uint8. Geometry is given in image pixel coordi
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import moderngl
@@ -354,7 +355,14 @@ class Canvas:
         lo, hi = color_limits(array, vmin=vmin, vmax=vmax, percentile=percentile)
         table = colormap(cmap)
         defined = ~np.isnan(array)
-        packed = np.stack([np.where(defined, array, 0.0), defined], axis=-1).astype(np.float32)
+        # the colours need the values clipped to the limits only, and those by a power of
+        # two (exact) to a largest magnitude about 1: float32 holds finite float64 values
+        # beyond its range (1e39) and below it (1e-40) so, and the span of limits near
+        # float64's largest too
+        largest = max(abs(lo), abs(hi))
+        unit = math.ldexp(1.0, -math.frexp(largest)[1]) if largest > 0 else 1.0
+        shown = np.where(defined, np.clip(array, lo, hi), 0.0) * unit
+        packed = np.stack([shown, defined], axis=-1).astype(np.float32)
         lut = np.concatenate([table, np.full((len(table), 1), 255, np.uint8)], axis=1)
         mgl = self._begin()
         program = self._gl.program(_FULLSCREEN, "draw/colormap.frag.glsl")
@@ -366,7 +374,7 @@ class Canvas:
                 tex.use(binding.index)
             uniforms = {
                 "u_table_size": len(table),
-                "u_limits": (lo, hi),
+                "u_limits": (lo * unit, hi * unit),
                 "u_nan_color": _rgba(nan_color, 1.0, "nan_color"),
                 "u_opacity": _opacity(opacity),
             }

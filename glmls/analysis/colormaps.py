@@ -326,12 +326,23 @@ def picture_limits(
     return color_limits(values, vmin=lo, percentile=percentile, span=span)
 
 
+def unit_fractions(values: object, lo: float, hi: float) -> np.ndarray:
+    """(values - lo) / (hi - lo) in float64 (0 where hi == lo), of halves where the span
+    overflows (limits of either sign near float64's largest): not inf / inf."""
+    array = np.asarray(values, dtype=np.float64)
+    if not hi > lo:
+        return np.zeros_like(array)
+    with np.errstate(over="ignore", invalid="ignore"):
+        if np.isfinite(hi - lo):
+            return (array - lo) / (hi - lo)
+        return (array / 2 - lo / 2) / (hi / 2 - lo / 2)
+
+
 def color_indices(values: object, lo: float, hi: float, n: int) -> np.ndarray:
     """Table index of every value (-1 for NaN): round(t (n - 1)), t clipped to [0, 1]."""
     array = np.asarray(values, dtype=np.float64)
-    span = hi - lo
     with np.errstate(invalid="ignore"):
-        t = np.clip((array - lo) / span, 0.0, 1.0) if span > 0 else np.zeros_like(array)
+        t = np.clip(unit_fractions(array, lo, hi), 0.0, 1.0)
     index = np.floor(t * (n - 1) + 0.5)
     return np.where(np.isnan(array), -1, index).astype(np.int64)
 
@@ -497,7 +508,11 @@ def colorbar(
     # Pillow refuses 0 and sizes beyond 65535 unnamed, and draws large ones for seconds
     font_size = check_integer("font_size", font_size, 1, MAX_FONT_SIZE)
     font = ImageFont.load_default(size=font_size)
-    values = np.linspace(lo, hi, ticks)
+    if np.isfinite(hi - lo):
+        values = np.linspace(lo, hi, ticks)
+    else:  # lo + (hi - lo) t overflows
+        shares = np.linspace(0.0, 1.0, ticks)
+        values = lo * (1.0 - shares) + hi * shares
     labels = tick_labels(values)
     text_width = max(int(font.getlength(text)) for text in labels)
     # a tick's mark, then a gap as wide as half a digit's height: the mark right before the
@@ -523,7 +538,7 @@ def colorbar(
     draw = ImageDraw.Draw(image)
     ink = as_color(text_color, "text_color")
     for value, text in zip(values, labels, strict=True):
-        frac = 0.0 if hi == lo else (value - lo) / (hi - lo)
+        frac = float(unit_fractions(value, lo, hi))
         y = top + round((1.0 - frac) * (length - 1))
         draw.line([(thickness, y), (thickness + mark - 1, y)], fill=ink)
         draw.text((thickness + mark + gap, y), text, fill=ink, font=font, anchor="lm")

@@ -11,6 +11,7 @@ from collections.abc import Sequence
 import moderngl
 import numpy as np
 
+from ..core.config import check_flag
 from ..core.handles import as_points
 from ..core.segments import validate_segments
 from ..gl.context import GLContext
@@ -324,6 +325,7 @@ def render_triangle_errors(
     >>> picture[20, 8].tolist()  # equal errors: the colour map's first colour
     [68, 1, 84]
     """
+    deformed = check_flag("deformed", deformed)
     if which not in ("angle", "distance"):
         raise ValueError(f"which must be 'angle' or 'distance', got {which!r}")
     if not isinstance(errors, TriangleErrors):
@@ -491,6 +493,7 @@ def render_construction_errors(
     >>> errors.values.tolist(), picture[16, 17].tolist()  # at f(r): an error of 0
     ([0.0], [68, 1, 84])
     """
+    deformed = check_flag("deformed", deformed)
     if not isinstance(errors, ConstructionErrors):
         raise TypeError(f"errors must be a ConstructionErrors, got {type(errors).__name__}")
     size = float(max(4, errors.radius + 1)) if radius is None else check_size("radius", radius)

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from PIL import Image
 
-from ..core.config import check_choice
+from ..core.config import check_choice, check_flag
 from ..core.mesh import check_grid
 from ..files.atomic import atomic_write
 from ..files.json_out import strict_json
@@ -349,6 +349,8 @@ def report(
     >>> found.summary["foldovers"], found.summary["triangles"]["flipped"]
     ({'grid': 1, 'cells': 0}, 0)
     """
+    fit = check_flag("fit", fit)
+    construction = check_flag("construction", construction)
     rgb, limits = rgb8_intensities(image)
     shape = rgb.shape[:2]
     described = {"height": shape[0], "width": shape[1]}

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.config import MLSConfig, check_real
+from ..core.config import MLSConfig, check_flag, check_real
 from ..core.handles3 import volume_diagonal
 from ..errors import DtypeError
 from ..files.volumes import Volume
@@ -269,6 +269,7 @@ def volume_report(
     >>> found.field.shape, found.summary["tetrahedra"]["tetrahedra"] > 0
     ((12, 12, 12), True)
     """
+    warp = check_flag("warp", warp)
     check_handles3(m)  # the error field's need, before any work
     array = _check_volume(volume, "volume")
     if array.dtype.kind == "f" and not np.isfinite(array).any():

@@ -20,7 +20,7 @@ import moderngl
 import numpy as np
 
 from ..core.config import MLSConfig, image_diagonal, transform_code
-from ..core.handles import Scaling, pack_handles
+from ..core.handles import COORDINATE_LIMIT, Scaling, pack_handles
 from ..core.handleset import HandleSet
 from ..core.segments import (
     segment_config,
@@ -203,6 +203,9 @@ def config_defines(
         "MLS_SEGMENTS": segments,
         "MLS_SEGMENT_CLOSED": entry.segment_closed_form(config) and not config.interpolating,
         "MLS_SEGMENT_SUPPORT": SUPPORTS.index(entry.support),
+        # the coordinates glmls takes (pixels): a preimage past them is none
+        # (warp/inverse.comp.glsl)
+        "MLS_COORDINATE_LIMIT": COORDINATE_LIMIT,
     }
     if entry.edge64:  # its float64 version for the handles near d = R (mls/weighting.glsl)
         defines["MLS_WEIGHT_FUNCTION64"] = entry.glsl_function64

@@ -190,3 +190,27 @@ def test_a_tick_mark_stands_apart_from_its_label():
     assert mark.tolist() == [10, 11, 12, 13, 14]
     digits = np.flatnonzero((bar[6:19] < 128).all(axis=2).any(axis=0))
     assert digits[digits > 14].min() >= 15 + 6  # half of the 12 px font between
+
+
+@pytest.mark.parametrize(
+    "values",
+    [
+        [-1e308, 0.0, 1e308],  # hi - lo overflows float64
+        [0.0, 1e39, 2e39],  # beyond float32
+        [0.0, 1e-40, 2e-40],  # float32's subnormals
+    ],
+)
+def test_finite_values_at_the_extremes_keep_their_scale(gl, values):
+    """Finite values whose span overflows float64, or that float32 cannot hold, are coloured
+    by the rule t = (x - lo) / (hi - lo) as any others: on the CPU, on the GPU and in the
+    colour bar, without a warning."""
+    table = colormaps.colormap("viridis")
+    expected = table[[0, (len(table) - 1) // 2 + 1, len(table) - 1]].tolist()
+    assert glmls.analysis.apply_colormap(values).tolist() == expected
+    rendered = glmls.analysis.render_field([values], ctx=gl)
+    assert rendered[0].tolist() == expected
+    lo, hi = values[0], values[-1]
+    bar = glmls.analysis.colorbar("viridis", lo, hi, length=64)
+    assert (
+        bar[12, 0].tolist() == table[-1].tolist() and bar[12 + 63, 0].tolist() == table[0].tolist()
+    )

@@ -124,6 +124,8 @@ def test_bad_input(gl):
     errors = glmls.analysis.triangle_errors(lambda v: v, [[0, 0], [3, 0], [0, 3]])
     with pytest.raises(ValueError, match="which"):
         glmls.analysis.render_triangle_errors(np.zeros((4, 4)), errors, which="area", ctx=gl)
+    with pytest.raises(TypeError, match="deformed must be True or False, got 1"):
+        glmls.analysis.render_triangle_errors(np.zeros((4, 4)), errors, deformed=1, ctx=gl)
 
 
 @pytest.mark.parametrize("samples", [3, 5, 1000])

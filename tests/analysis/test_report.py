@@ -157,7 +157,8 @@ def test_numpy_options_give_a_summary_json_can_write(gl, tmp_path):
 
 def test_option_types(gl):
     with glmls.MLS(SRC, DST, ctx=gl) as m:
-        for keywords in ({"grid": 2.0}, {"angle": None}, {"triangle_error": 1}):
+        flags = ({"fit": "no"}, {"construction": 0.0})
+        for keywords in ({"grid": 2.0}, {"angle": None}, {"triangle_error": 1}, *flags):
             with pytest.raises(TypeError, match=f"{next(iter(keywords))} must be"):
                 glmls.analysis.report(np.zeros((8, 8)), m, REFERENCE, **keywords)
 

@@ -148,6 +148,7 @@ def test_the_users_tetrahedra_index_the_handles_as_they_are_repeats_included(gl)
         ({"slices": (10, 0, 0)}, ValueError, "slices"),
         ({"deformed": np.zeros((3, 3, 3), np.uint8)}, ValueError, r"deformed has shape \(3, 3"),
         ({"warp_options": {"method": "backward"}}, TypeError, "warp_options must be a glmls"),
+        ({"warp": "no"}, TypeError, "warp must be True or False, got 'no'"),
         (
             {"warp_options": VolumeOptions(output_shape=(4, 4, 4))},
             ValueError,

@@ -97,6 +97,23 @@ def test_backward_constant_keeps_the_background_outside(gl):
     np.testing.assert_allclose(out[..., 0][inside], expected[inside], atol=1.5)
 
 
+@pytest.mark.parametrize("mode", ["edge", "wrap", "reflect", "symmetric"])
+def test_backward_shows_no_pixel_of_a_collapsed_plane_but_its_point(gl, mode):
+    """Every target at one point: f is constant (float64 M = 0), so only that pixel has a
+    preimage. float32 leaves M at noise (~1e-8), and Newton from the other pixels runs out
+    to ~1e7 px, where float32's steps of s (what a residual is accepted within) are pixels:
+    a preimage past the coordinates glmls takes (1e6 px) is none, batched or not."""
+    image = np.full((64, 80), 200, np.uint8)
+    p = np.array([[10.0, 10], [70, 10], [40, 50], [15, 55]])
+    q = np.tile([[40.0, 30]], (4, 1))
+    with glmls.MLS(p, q, transform="affine", shape=image.shape, ctx=gl) as m:
+        out = m.warp(image, method="backward", border=mode)
+    assert np.argwhere(out != 0).tolist() == [[30, 40]]
+    batch = glmls.warp_batch(np.stack([image] * 2), [p] * 2, [q] * 2, method="backward",
+                             border=mode, transform="affine")  # fmt: skip
+    np.testing.assert_array_equal(batch, [out, out])
+
+
 @pytest.mark.parametrize("mode", MODES)
 @pytest.mark.parametrize("method", ["backward", "backward-swap"])
 def test_backward_nearest_takes_the_padded_pixel(gl, mode, method):

@@ -54,15 +54,18 @@ uniform float u_accept_steps;  // ... or above this many float32 steps (warp_acc
 #endif
 
 // Whether s (scaled) counts as inside the source, grown by ``margin`` pixels: in its box with
-// the constant border, where a point outside shows the background; anywhere with the other
-// borders, which sample there.
+// the constant border, where a point outside shows the background; with the other borders,
+// which sample there, anywhere within the coordinates glmls takes (MLS_COORDINATE_LIMIT
+// pixels, as the handles and points): far past them warp_accept's float32 steps grow to
+// pixels, and Newton on a map that collapses the plane (every target at one point) ends
+// there with residuals of many pixels.
 bool warp_inside(vec2 s, float margin) {
     vec2 sp = s * u_scale + u_center;
 #if WARP_BORDER == 0
     return all(greaterThanEqual(sp, vec2(-0.5 - margin))) &&
            all(lessThanEqual(sp, vec2(u_source_size) - 0.5 + margin));
 #else
-    return true;
+    return all(lessThanEqual(abs(sp), vec2(MLS_COORDINATE_LIMIT)));
 #endif
 }
 
