@@ -24,10 +24,11 @@ import numpy as np
 
 from ..batch.inputs import check_batch_image, check_coordinates, check_points
 from ..core.config import check_real
-from .core import Augment, replay_boxes, replay_images, replay_labels, replay_masks
+from .core import Augment
 from .labels import canvas_shape
 from .params import check_params
 from .presets import preset_from
+from .replay import replay_boxes, replay_images, replay_labels, replay_masks
 
 __all__ = ["MLSDeform"]
 

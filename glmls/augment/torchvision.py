@@ -86,9 +86,10 @@ from torchvision.transforms import v2  # noqa: E402
 from torchvision.transforms.v2 import functional as F  # noqa: E402
 
 from ..core.magnitudes import integer_background  # noqa: E402
-from .core import Augment, replay_boxes, replay_images, replay_labels, replay_masks  # noqa: E402
+from .core import Augment  # noqa: E402
 from .labels import canvas_shape  # noqa: E402
 from .presets import preset_from  # noqa: E402
+from .replay import replay_boxes, replay_images, replay_labels, replay_masks  # noqa: E402
 from .tensors import to_numpy  # noqa: E402
 
 __all__ = ["MLSTransform", "check_import_order"]

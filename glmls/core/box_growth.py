@@ -29,9 +29,10 @@ def box_gains(before: Box, now: Box, reach: float, low: np.ndarray, high: np.nda
     by the deformed border's box, grown from ``before`` to ``now`` as the margin grew: it
     holds the canvas and still grows, or its part in the canvas grew, or, still outside the
     canvas, growing on twice as fast as it did up to the margin ``reach`` (the budget's) it
-    would meet it. A map that collapses the image or volume (a box that stopped growing) or
-    a canvas far from anything the budget's margin could reach ends the search; so does a
-    border with no finite image, and a margin that did not grow decides nothing (True)."""
+    would meet it. A map that collapses the image or volume (a box that stopped growing and
+    did not shrink: one that shrank, as f folds the border in, goes on) or a canvas far from
+    anything the budget's margin could reach ends the search; so does a border with no
+    finite image, and a margin that did not grow decides nothing (True)."""
     (m0, low0, high0), (m1, low1, high1) = before, now
     if not (np.isfinite(low1).all() and np.isfinite(high1).all()):
         return False
@@ -39,7 +40,9 @@ def box_gains(before: Box, now: Box, reach: float, low: np.ndarray, high: np.nda
         return True
     least = BOX_GROWTH * (m1 - m0)
     if not ((low0 - low1 > least).any() or (high1 - high0 > least).any()):
-        return False
+        # stopped growing (f collapses the plane or volume): ends, unless it shrank, as f
+        # folds the border in (handles that swap places), to grow further out
+        return bool((low1 - low0 > least).any() or (high0 - high1 > least).any())
     if (low1 <= low).all() and (high1 >= high).all():
         return True  # the box holds the canvas: the border's shape decides
     if boxes_meet((low1, high1), low, high):

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from glmls.augment import Augment
-from glmls.augment.core import replay_boxes
+from glmls.augment.replay import replay_boxes
 
 IMAGES = np.random.default_rng(0).integers(0, 255, (2, 32, 40), dtype=np.uint8)
 #: f itself moves the outline's samples (no mesh crossings): the box depends on box_step.

@@ -21,6 +21,16 @@ def test_a_box_that_stopped_growing_ends_the_search(dim):
 
 
 @pytest.mark.parametrize("dim", [2, 3])
+def test_a_box_that_shrank_goes_on(dim):
+    """f folds the border in (handles that swap places): its image's box shrinks before it
+    grows, further out; no collapse."""
+    canvas = np.zeros(dim), np.full(dim, 100.0)
+    before = _box(0, [-20.0] * dim, [130.0] * dim)
+    after = _box(104, [5.0] * dim, [110.0] * dim)
+    assert box_gains(before, after, 1000.0, *canvas)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
 def test_a_box_growing_inside_the_canvas_goes_on(dim):
     canvas = np.zeros(dim), np.full(dim, 100.0)
     before = _box(4, [40.0] * dim, [60.0] * dim)

@@ -4,6 +4,8 @@ needs)."""
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 from helpers import run_demo, smooth_handles, turned_handles
@@ -383,3 +385,19 @@ def test_backward_beyond_the_mesh_reach_follows_the_rule(gl):
     at = [centre[1] + (rows - centre[1]) * 10.0, centre[0] + (cols - centre[0]) * 10.0]
     want = ndimage.map_coordinates(image, at, order=0, mode="nearest")
     np.testing.assert_array_equal(out, want)
+
+
+def test_a_border_folded_in_takes_the_margin_that_covers_the_canvas(gl):
+    """Two handles that swap places fold the mesh's border in: its image's box shrinks from
+    margin 0 to 104 px before it grows; the search goes on to the margin (~1,000 px) whose
+    border encloses the canvas, and every pixel is drawn, as by backward."""
+    p = np.array([[77.51, 78.188], [93.774, 27.116], [42.418, 76.39],
+                  [10.569, 72.413], [96.083, 45.563], [42.728, 31.16]])  # fmt: skip
+    q = p.copy()
+    q[1], q[3] = [6.536, 71.041], [93.686, 29.202]
+    image = np.full((96, 128), 200, np.uint8)
+    with glmls.MLS(p, q, transform="similarity", shape=image.shape, ctx=gl) as m:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", glmls.BorderWarning)
+            out = m.warp(image, method="quads", border="edge", grid=4)
+    assert (out == 200).all()
