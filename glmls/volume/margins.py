@@ -115,7 +115,7 @@ def search_margins3(
     # the frame's voxel cubes grown by a voxel, (axis, low / high)
     grown = np.stack([low - 1.5, high + 1.5], axis=1)
     budget = max(MARGIN_POINTS3, 2 * (d * h * w + frame.voxels) // grid**3)
-    margins, covered = _covering(field, lattice, frame, cover, size, grown, budget)
+    margins, covered = _covering(field, lattice, cover, size, (low, high), grown, budget)
     if cover:
         # then the space that handles beyond the volume pull over the canvas, within what
         # the budget leaves: after the canvas's cover, which a larger lattice keeps (its
@@ -129,20 +129,19 @@ def search_margins3(
 def _covering(
     field: Field,
     lattice: CornerLattice,
-    frame: VolumeFrame,
     cover: bool,
     size: np.ndarray,
+    voxels: tuple[np.ndarray, np.ndarray],
     grown: np.ndarray,
     budget: int,
 ) -> tuple[np.ndarray, bool]:
-    """:func:`search_margins3`'s search of the faces (``grown``: the frame's box grown by a
-    voxel, (axis, low / high); ``size``: the volume's (x, y, z); ``budget``: the most
-    lattice points): the (3, 2) margins and whether the lattice so extended covers the
-    canvas."""
+    """:func:`search_margins3`'s search of the faces (``size``: the volume's (x, y, z);
+    ``voxels``: the frame's first and last voxel centres (x, y, z); ``grown``: its box grown
+    by a voxel, (axis, low / high); ``budget``: the most lattice points): the (3, 2) margins
+    and whether the lattice so extended covers the canvas."""
     grid = lattice.grid
     d, h, w = lattice.shape
-    low = np.array(frame.origin_voxels)
-    high = low + np.array(frame.shape[::-1]) - 1
+    low, high = voxels
     centre = grown.mean(axis=1)
     # how far the frame's voxel centres reach past each side
     overhang = np.stack([np.maximum(0.0, -0.5 - low), np.maximum(0.0, high - size + 0.5)], 1)
